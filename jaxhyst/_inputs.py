@@ -1,0 +1,179 @@
+"""The sampled input u(t) as a continuous path that simulators and models can query.
+
+Between samples the input is interpolated. `LinearInterpolation` (the default) makes
+u piecewise linear with a constant udot on each sample interval: the rate-independent
+Bouc-Wen operator then sees exactly the sampled turning points, and an RK4 step that
+stays inside one interval integrates a smooth vector field (so it keeps its 4th order).
+`CubicInterpolation` gives a C1 path (continuous udot) for band-limited inputs such as
+multisines, where a piecewise-linear input under-represents the signal between samples.
+"""
+
+import abc
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float, Int
+
+
+class AbstractInterpolation(eqx.Module):
+    """How the input is reconstructed between samples."""
+
+    @abc.abstractmethod
+    def on_interval(
+        self,
+        values: Float[Array, " n"],
+        dt: Float[ArrayLike, ""],
+        interval: Int[ArrayLike, "..."],
+        frac: Float[ArrayLike, "..."],
+    ) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
+        """(u, du/dt) at fraction `frac` in [0, 1] of sample interval `interval`."""
+
+
+class LinearInterpolation(AbstractInterpolation):
+    """Piecewise-linear input, constant rate on each sample interval. The default:
+    change it only for smooth, band-limited inputs sampled close to their bandwidth."""
+
+    def on_interval(self, values, dt, interval, frac):
+        left = values[interval]
+        slope = (values[interval + 1] - left) / dt
+        return left + frac * dt * slope, slope * jnp.ones_like(frac)
+
+
+class CubicInterpolation(AbstractInterpolation):
+    """Cubic Hermite (Catmull-Rom) input with central-difference slopes: C1 in time."""
+
+    def on_interval(self, values, dt, interval, frac):
+        n = values.shape[0]
+        p0 = values[interval]
+        p1 = values[interval + 1]
+        before = values[jnp.maximum(interval - 1, 0)]
+        after = values[jnp.minimum(interval + 2, n - 1)]
+        # One-sided differences at the ends keep the path inside the data range.
+        m0 = jnp.where(interval > 0, (p1 - before) / 2, p1 - p0)
+        m1 = jnp.where(interval + 2 < n, (after - p0) / 2, p1 - p0)
+        s = frac
+        s2 = s * s
+        s3 = s2 * s
+        value = (
+            (2 * s3 - 3 * s2 + 1) * p0
+            + (s3 - 2 * s2 + s) * m0
+            + (-2 * s3 + 3 * s2) * p1
+            + (s3 - s2) * m1
+        )
+        slope = (
+            (6 * s2 - 6 * s) * p0
+            + (3 * s2 - 4 * s + 1) * m0
+            + (-6 * s2 + 6 * s) * p1
+            + (3 * s2 - 2 * s) * m1
+        ) / dt
+        return value, slope
+
+
+class InputPath(eqx.Module):
+    """A uniformly sampled input u(t0 + k*dt) = values[k], interpolated between samples.
+
+    Outside [t0, t0 + (n-1)*dt] the path holds its end value with zero rate.
+    Build one from arrays with `InputPath.from_samples(t, u)`, which checks the time axis.
+    """
+
+    t0: Float[Array, ""]
+    dt: Float[Array, ""]
+    values: Float[Array, " n"]
+    interpolation: AbstractInterpolation = eqx.field(
+        default_factory=LinearInterpolation
+    )
+
+    def __init__(
+        self,
+        t0: Float[ArrayLike, ""],
+        dt: Float[ArrayLike, ""],
+        values: Float[ArrayLike, " n"],
+        *,
+        interpolation: AbstractInterpolation | None = None,
+    ):
+        values = jnp.asarray(values)
+        if values.ndim != 1:
+            raise ValueError(
+                f"InputPath: values must be one-dimensional, got shape {values.shape}; "
+                "pass one input channel as a 1-D array."
+            )
+        if values.shape[0] < 2:
+            raise ValueError(
+                f"InputPath: need at least 2 samples, got {values.shape[0]}."
+            )
+        if not jnp.issubdtype(values.dtype, jnp.floating):
+            values = values.astype(jnp.result_type(float))
+        if isinstance(dt, (int, float)) and not dt > 0:
+            raise ValueError(f"InputPath: dt must be positive, got {dt}.")
+        self.t0 = jnp.asarray(t0, values.dtype)
+        self.dt = jnp.asarray(dt, values.dtype)
+        self.values = values
+        self.interpolation = (
+            LinearInterpolation() if interpolation is None else interpolation
+        )
+
+    @classmethod
+    def from_samples(
+        cls,
+        t: Float[ArrayLike, " n"],
+        u: Float[ArrayLike, " n"],
+        *,
+        interpolation: AbstractInterpolation | None = None,
+        rtol: float = 1e-6,
+    ) -> "InputPath":
+        """Build a path from sample times and values; `t` must be uniformly spaced
+        (within `rtol` of the mean step). Resample first if it is not."""
+        t_np = np.asarray(t, dtype=float)
+        u_arr = jnp.asarray(u)
+        if t_np.ndim != 1 or u_arr.ndim != 1 or t_np.shape != u_arr.shape:
+            raise ValueError(
+                f"InputPath.from_samples: t and u must be 1-D of equal length, got "
+                f"shapes {t_np.shape} and {tuple(u_arr.shape)}."
+            )
+        if t_np.shape[0] < 2:
+            raise ValueError("InputPath.from_samples: need at least 2 samples.")
+        steps = np.diff(t_np)
+        if np.any(steps <= 0):
+            raise ValueError(
+                "InputPath.from_samples: time must be strictly increasing; sort the "
+                "samples or drop duplicates."
+            )
+        mean_step = (t_np[-1] - t_np[0]) / (t_np.shape[0] - 1)
+        if np.max(np.abs(steps - mean_step)) > rtol * mean_step + 1e-12:
+            raise ValueError(
+                "InputPath.from_samples: time is not uniformly sampled (step varies "
+                f"from {steps.min():.6g} to {steps.max():.6g}); resample onto a "
+                "uniform grid first (Recording.resample)."
+            )
+        return cls(t_np[0], mean_step, u_arr, interpolation=interpolation)
+
+    @property
+    def num_samples(self) -> int:
+        return self.values.shape[0]
+
+    @property
+    def times(self) -> Float[Array, " n"]:
+        return self.t0 + self.dt * jnp.arange(self.num_samples, dtype=self.dt.dtype)
+
+    @property
+    def t1(self) -> Float[Array, ""]:
+        return self.t0 + self.dt * (self.num_samples - 1)
+
+    def on_interval(
+        self, interval: Int[ArrayLike, "..."], frac: Float[ArrayLike, "..."]
+    ) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
+        """(u, udot) at fraction `frac` of sample interval `interval` (no clamping)."""
+        return self.interpolation.on_interval(self.values, self.dt, interval, frac)
+
+    def evaluate(
+        self, t: Float[ArrayLike, "..."]
+    ) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
+        """(u, udot) at times `t` (any shape). Right-continuous in udot at samples."""
+        position = (jnp.asarray(t, self.dt.dtype) - self.t0) / self.dt
+        last = self.num_samples - 1
+        interval = jnp.clip(jnp.floor(position), 0, last - 1).astype(jnp.int32)
+        frac = position - interval
+        inside = (position >= 0) & (position <= last)
+        u, udot = self.on_interval(interval, jnp.clip(frac, 0, 1))
+        return u, jnp.where(inside, udot, 0)
