@@ -166,6 +166,34 @@ class InputPath(eqx.Module):
         """(u, udot) at fraction `frac` of sample interval `interval` (no clamping)."""
         return self.interpolation.on_interval(self.values, self.dt, interval, frac)
 
+    def on_interval_shifted(
+        self,
+        interval: Int[ArrayLike, ""],
+        frac: Float[ArrayLike, ""],
+        shift: Float[ArrayLike, ""],
+    ) -> tuple[Float[Array, ""], Float[Array, ""]]:
+        """(u, udot) at time `shift` after the point `frac` of `interval`.
+
+        The shifted point stays on the same interval whenever it can (so a zero shift
+        reproduces `on_interval` exactly, one-sided rate included); outside the record
+        the path holds its end value with zero rate.
+        """
+        offset = jnp.asarray(shift, self.dt.dtype) / self.dt
+        whole = jnp.floor(offset)
+        target = interval + whole.astype(jnp.int32)
+        target_frac = frac + (offset - whole)
+        spill = target_frac > 1
+        target = jnp.where(spill, target + 1, target)
+        target_frac = jnp.where(spill, target_frac - 1, target_frac)
+        last = self.num_samples - 1
+        inside = (target >= 0) & (target <= last - 1)
+        clamped = jnp.clip(target, 0, last - 1)
+        frac_in = jnp.where(
+            target < 0, 0.0, jnp.where(target > last - 1, 1.0, target_frac)
+        )
+        u, udot = self.on_interval(clamped, frac_in)
+        return u, jnp.where(inside, udot, 0)
+
     def evaluate(
         self, t: Float[ArrayLike, "..."]
     ) -> tuple[Float[Array, "..."], Float[Array, "..."]]:

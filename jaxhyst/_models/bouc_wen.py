@@ -1,0 +1,281 @@
+"""The standard Bouc-Wen model (eq. 1-2) and the piezo models derived from it
+(eq. 7-8, the corrected eq. 16-17, and the stage dynamics of eq. 3-4)."""
+
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from .._inputs import InputPath
+from .._smoothing import AbstractSmoothing, ExactSign
+from .base import (
+    AbstractHysteresisModel,
+    Drive,
+    hysteretic_rate,
+    parameter_field,
+    read_input,
+)
+
+
+def _smoothing_field():
+    return eqx.field(default_factory=ExactSign, kw_only=True)
+
+
+class BoucWen(AbstractHysteresisModel):
+    """Standard Bouc-Wen (eq. 1-2):
+
+    Phi  = alpha*k*u + (1 - alpha)*D*k*h
+    hdot = (A*udot - beta*|udot|*|h|^(n-1)*h - gamma*udot*|h|^n) / D
+    """
+
+    k: Float[Array, ""] = parameter_field()
+    alpha: Float[Array, ""] = parameter_field()
+    D: Float[Array, ""] = parameter_field()
+    A: Float[Array, ""] = parameter_field()
+    beta: Float[Array, ""] = parameter_field()
+    gamma: Float[Array, ""] = parameter_field()
+    n: Float[Array, ""] = parameter_field()
+    smoothing: AbstractSmoothing = _smoothing_field()
+
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "k",
+        "alpha",
+        "D",
+        "A",
+        "beta",
+        "gamma",
+        "n",
+    )
+    state_size: ClassVar[int] = 1
+
+    def vector_field(self, t, state, drive):
+        hdot = hysteretic_rate(
+            self.smoothing,
+            state[0],
+            drive.udot,
+            self.A,
+            self.beta,
+            self.gamma,
+            self.n,
+        )
+        return jnp.stack([hdot / self.D])
+
+    def output(self, t, state, drive):
+        return (
+            self.alpha * self.k * drive.u
+            + (1 - self.alpha) * self.D * self.k * (state[0])
+        )
+
+
+class PiezoBoucWen(AbstractHysteresisModel):
+    """The paper's six-parameter quasi-static piezo model (eq. 7-8):
+
+        y    = k1*u + k2*h
+        hdot = A1*udot - beta1*|udot|*|h|^(n-1)*h - gamma1*udot*|h|^n
+
+    (k2, A1, beta1, gamma1) carry a scaling symmetry h -> c*h, so one direction of the
+    six parameters is not identifiable from y alone; fix a gauge (e.g. A1) when fitting.
+    """
+
+    k1: Float[Array, ""] = parameter_field()
+    k2: Float[Array, ""] = parameter_field()
+    A1: Float[Array, ""] = parameter_field()
+    beta1: Float[Array, ""] = parameter_field()
+    gamma1: Float[Array, ""] = parameter_field()
+    n: Float[Array, ""] = parameter_field()
+    smoothing: AbstractSmoothing = _smoothing_field()
+
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "k1",
+        "k2",
+        "A1",
+        "beta1",
+        "gamma1",
+        "n",
+    )
+    state_size: ClassVar[int] = 1
+
+    def vector_field(self, t, state, drive):
+        hdot = hysteretic_rate(
+            self.smoothing,
+            state[0],
+            drive.udot,
+            self.A1,
+            self.beta1,
+            self.gamma1,
+            self.n,
+        )
+        return jnp.stack([hdot])
+
+    def output(self, t, state, drive):
+        return self.k1 * drive.u + self.k2 * state[0]
+
+
+class ShiftedDrive(Drive):
+    """The input and its rate, plus the time-shifted input V(t) = u(t + phi) and its
+    rate, which the corrected model's hysteresis operator sees."""
+
+    v: Float[Array, ""]
+    vdot: Float[Array, ""]
+
+
+class CorrectedPiezoBoucWen(AbstractHysteresisModel):
+    """The paper's corrected (asymmetric) piezo model (eq. 16-17):
+
+        y         = k1*u(t) + k2*h
+        hdot      = (A1 - (beta1*sign(Vdot)*sign(h) + gamma1)*|h|^n)*Vdot + Delta_Phi
+        V(t)      = u(t + phi)              (input bias: a time shift in seconds)
+        Delta_Phi = eps*u(t)*sign(udot(t))  (asymmetry)
+
+    V is read from the interpolated sampled input (held at its end values outside
+    the record). With phi = eps = 0 this is exactly `PiezoBoucWen`.
+    """
+
+    k1: Float[Array, ""] = parameter_field()
+    k2: Float[Array, ""] = parameter_field()
+    A1: Float[Array, ""] = parameter_field()
+    beta1: Float[Array, ""] = parameter_field()
+    gamma1: Float[Array, ""] = parameter_field()
+    n: Float[Array, ""] = parameter_field()
+    phi: Float[Array, ""] = parameter_field(default=0.0)
+    eps: Float[Array, ""] = parameter_field(default=0.0)
+    smoothing: AbstractSmoothing = _smoothing_field()
+
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "k1",
+        "k2",
+        "A1",
+        "beta1",
+        "gamma1",
+        "n",
+        "phi",
+        "eps",
+    )
+    state_size: ClassVar[int] = 1
+
+    @classmethod
+    def from_piezo(
+        cls,
+        base: PiezoBoucWen,
+        *,
+        phi: Float[ArrayLike, ""] = 0.0,
+        eps: Float[ArrayLike, ""] = 0.0,
+    ) -> "CorrectedPiezoBoucWen":
+        """The corrected model around a fitted plain model (the paper's two stages)."""
+        return cls(**base.parameters(), phi=phi, eps=eps, smoothing=base.smoothing)
+
+    def drive(self, path: InputPath, t, interval=None, frac=None) -> ShiftedDrive:
+        u, udot = read_input(path, t, interval, frac)
+        if interval is None or frac is None:
+            v, vdot = path.evaluate(t + self.phi)
+        else:
+            v, vdot = path.on_interval_shifted(interval, frac, self.phi)
+        return ShiftedDrive(u, udot, v, vdot)
+
+    def vector_field(self, t, state, drive: ShiftedDrive):
+        s = self.smoothing
+        hdot = hysteretic_rate(
+            s, state[0], drive.vdot, self.A1, self.beta1, self.gamma1, self.n
+        )
+        return jnp.stack([hdot + self.eps * drive.u * s.sign(drive.udot)])
+
+    def output(self, t, state, drive):
+        return self.k1 * drive.u + self.k2 * state[0]
+
+
+class PiezoStage(AbstractHysteresisModel):
+    """The stage dynamics of eq. 3-4: a mass-spring-damper driven by the hysteretic
+    force, written per unit stiffness so that it nests the quasi-static model:
+
+        ydd / omega^2 + (2*zeta/omega)*yd + y = k1*u + k2*h,   h as in `PiezoBoucWen`
+
+    with omega = 2*pi*natural_frequency = sqrt(ks/m), zeta = c/(2*sqrt(ks*m)),
+    k1 = alpha*k/ks, k2 = (1-alpha)*k*D/ks and A1, beta1, gamma1 = A/D, beta/D,
+    gamma/D. As natural_frequency -> infinity this becomes `PiezoBoucWen` ("m*ydd and
+    c*yd neglected"). State: (y, yd, h); it starts at rest in static equilibrium.
+    """
+
+    k1: Float[Array, ""] = parameter_field()
+    k2: Float[Array, ""] = parameter_field()
+    A1: Float[Array, ""] = parameter_field()
+    beta1: Float[Array, ""] = parameter_field()
+    gamma1: Float[Array, ""] = parameter_field()
+    n: Float[Array, ""] = parameter_field()
+    natural_frequency: Float[Array, ""] = parameter_field()
+    damping_ratio: Float[Array, ""] = parameter_field()
+    smoothing: AbstractSmoothing = _smoothing_field()
+
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "k1",
+        "k2",
+        "A1",
+        "beta1",
+        "gamma1",
+        "n",
+        "natural_frequency",
+        "damping_ratio",
+    )
+    state_size: ClassVar[int] = 3
+
+    @classmethod
+    def from_physical(
+        cls,
+        *,
+        m: float,
+        c: float,
+        ks: float,
+        k: float,
+        alpha: float,
+        D: float,
+        A: float,
+        beta: float,
+        gamma: float,
+        n: float,
+        smoothing: AbstractSmoothing | None = None,
+    ) -> "PiezoStage":
+        """Build from eq. 3-4's physical constants (mass, damping, stiffnesses)."""
+        omega = (ks / m) ** 0.5
+        return cls(
+            k1=alpha * k / ks,
+            k2=(1 - alpha) * k * D / ks,
+            A1=A / D,
+            beta1=beta / D,
+            gamma1=gamma / D,
+            n=n,
+            natural_frequency=omega / (2 * jnp.pi),
+            damping_ratio=c / (2 * (ks * m) ** 0.5),
+            smoothing=ExactSign() if smoothing is None else smoothing,
+        )
+
+    @classmethod
+    def from_piezo(
+        cls,
+        base: PiezoBoucWen,
+        *,
+        natural_frequency: Float[ArrayLike, ""],
+        damping_ratio: Float[ArrayLike, ""],
+    ) -> "PiezoStage":
+        return cls(
+            **base.parameters(),
+            natural_frequency=natural_frequency,
+            damping_ratio=damping_ratio,
+            smoothing=base.smoothing,
+        )
+
+    def vector_field(self, t, state, drive):
+        y, yd, h = state[0], state[1], state[2]
+        omega = 2 * jnp.pi * self.natural_frequency
+        hdot = hysteretic_rate(
+            self.smoothing, h, drive.udot, self.A1, self.beta1, self.gamma1, self.n
+        )
+        static = self.k1 * drive.u + self.k2 * h
+        ydd = omega**2 * (static - y) - 2 * self.damping_ratio * omega * yd
+        return jnp.stack([yd, ydd, hdot])
+
+    def output(self, t, state, drive):
+        return state[0]
+
+    def initial_state(self, drive):
+        y0 = self.k1 * drive.u
+        return jnp.stack([y0, jnp.zeros_like(y0), jnp.zeros_like(y0)])

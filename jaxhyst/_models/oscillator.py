@@ -1,0 +1,58 @@
+"""The hysteretic oscillator of the Bouc-Wen nonlinear benchmark (Noel & Schoukens)."""
+
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .._smoothing import AbstractSmoothing, ExactSign
+from .base import AbstractHysteresisModel, hysteretic_rate, parameter_field
+
+
+class HystereticOscillator(AbstractHysteresisModel):
+    """A force-driven single-degree-of-freedom oscillator with a Bouc-Wen restoring force:
+
+        mass*ydd + damping*yd + stiffness*y + z = u
+        zdot = alpha*yd - beta_gamma*|yd|*|z|^(nu-1)*z - beta_delta*yd*|z|^nu
+
+    The benchmark's (beta, gamma, delta) enter only as the products beta*gamma and
+    beta*delta, which are the identifiable parameters used here. State: (y, yd, z).
+    """
+
+    mass: Float[Array, ""] = parameter_field()
+    damping: Float[Array, ""] = parameter_field()
+    stiffness: Float[Array, ""] = parameter_field()
+    alpha: Float[Array, ""] = parameter_field()
+    beta_gamma: Float[Array, ""] = parameter_field()
+    beta_delta: Float[Array, ""] = parameter_field()
+    nu: Float[Array, ""] = parameter_field()
+    smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
+
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "mass",
+        "damping",
+        "stiffness",
+        "alpha",
+        "beta_gamma",
+        "beta_delta",
+        "nu",
+    )
+    state_size: ClassVar[int] = 3
+
+    @classmethod
+    def benchmark_truth(cls) -> "HystereticOscillator":
+        """The parameters that generated the benchmark data (m_L = 2 kg, c_L = 10 N s/m,
+        k_L = 5e4 N/m, alpha = 5e4 N/m, beta = 1e3 1/m, gamma = 0.8, delta = -1.1, nu = 1)."""
+        return cls(2.0, 10.0, 5e4, 5e4, 1e3 * 0.8, 1e3 * -1.1, 1.0)
+
+    def vector_field(self, t, state, drive):
+        y, yd, z = state[0], state[1], state[2]
+        zdot = hysteretic_rate(
+            self.smoothing, z, yd, self.alpha, self.beta_gamma, self.beta_delta, self.nu
+        )
+        ydd = (drive.u - self.damping * yd - self.stiffness * y - z) / self.mass
+        return jnp.stack([yd, ydd, zdot])
+
+    def output(self, t, state, drive):
+        return state[0]

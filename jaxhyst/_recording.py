@@ -1,0 +1,610 @@
+"""A measured (or simulated) input/output record: time `t`, input `u`, output `y`.
+
+`Recording` checks its data once, when it is built, so that everything downstream can
+assume a finite, strictly increasing, uniformly sampled record with a non-constant
+input. Every problem is reported as a `RecordingError` whose one-line message names
+the problem and the fix.
+"""
+
+import csv
+import math
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+import equinox as eqx
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+from ._inputs import AbstractInterpolation, InputPath
+
+
+class RecordingError(ValueError):
+    """A recording (or the file it is read from) cannot be used as it is. The message
+    says what is wrong and how to fix it."""
+
+
+# The sample times may jitter around a uniform grid (CSV time stamps such as
+# 0.000200010001 do); deviations up to this fraction of the step are accepted.
+_UNIFORM_RTOL = 1e-3
+_META_PREFIX = "jaxhyst_"
+_MAT_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,62}")
+_UNIT_SUFFIX = re.compile(r"^(.*?)\s*\[([^\[\]]*)\]$")
+
+
+def _as_column(label: str, values, where: str) -> np.ndarray:
+    if np.iscomplexobj(values):
+        raise RecordingError(
+            f"{where}: {label} is complex; pass its real part (np.real) or magnitude."
+        )
+    try:
+        column = np.array(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise RecordingError(
+            f"{where}: {label} is not numeric; pass an array of numbers."
+        ) from None
+    if column.ndim != 1:
+        raise RecordingError(
+            f"{where}: {label} must be one-dimensional, got shape {column.shape}; "
+            "pass a single channel, flattened with np.ravel."
+        )
+    return column
+
+
+class Recording(eqx.Module):
+    """A uniformly sampled record of input `u` and output `y` at times `t`.
+
+    Build one from arrays, `Recording(t, u, y, name=...)`, or from a file,
+    `Recording.load(path)`. The constructor raises `RecordingError` unless the three
+    columns are 1-D and of equal length (at least 2 samples), finite, with `t` strictly
+    increasing and uniformly sampled (deviations up to 1e-3 of the step are accepted;
+    pass `resample=True` to interpolate a non-uniform record onto a uniform grid), and
+    `u` not constant. Arrays are stored as read-only float64 NumPy arrays.
+    """
+
+    t: Float[np.ndarray, " n"]
+    u: Float[np.ndarray, " n"]
+    y: Float[np.ndarray, " n"]
+    name: str
+    input_name: str
+    output_name: str
+    input_unit: str
+    output_unit: str
+    time_unit: str
+
+    def __init__(
+        self,
+        t: Float[ArrayLike, " n"],
+        u: Float[ArrayLike, " n"],
+        y: Float[ArrayLike, " n"],
+        *,
+        name: str = "recording",
+        input_name: str = "u",
+        output_name: str = "y",
+        input_unit: str = "",
+        output_unit: str = "",
+        time_unit: str = "s",
+        resample: bool = False,
+    ):
+        for option, value in (
+            ("name", name),
+            ("input_name", input_name),
+            ("output_name", output_name),
+            ("input_unit", input_unit),
+            ("output_unit", output_unit),
+            ("time_unit", time_unit),
+        ):
+            if not isinstance(value, str):
+                raise TypeError(
+                    f"Recording: {option} must be a string, got {type(value).__name__}."
+                )
+        where = f"Recording {name!r}"
+        labels = (
+            "time 't'",
+            f"input {input_name!r}",
+            f"output {output_name!r}",
+        )
+        t, u, y = (
+            _as_column(label, values, where) for label, values in zip(labels, (t, u, y))
+        )
+        if not t.shape == u.shape == y.shape:
+            raise RecordingError(
+                f"{where}: length mismatch, t has {t.shape[0]}, {input_name} has "
+                f"{u.shape[0]} and {output_name} has {y.shape[0]} samples; pass "
+                "columns of equal length, one value per time stamp."
+            )
+        n = t.shape[0]
+        if n < 2:
+            raise RecordingError(
+                f"{where}: has {n} sample(s); a recording needs at least 2."
+            )
+        for label, column in zip(labels, (t, u, y)):
+            bad = ~np.isfinite(column)
+            if bad.any():
+                row = int(np.argmax(bad))
+                raise RecordingError(
+                    f"{where}: {label} has {int(bad.sum())} NaN/inf value(s), the "
+                    f"first at row {row} (t = {t[row]:.6g}); drop those rows or "
+                    "interpolate over them before building the recording."
+                )
+        steps = np.diff(t)
+        if np.any(steps <= 0):
+            i = int(np.argmax(steps <= 0)) + 1
+            raise RecordingError(
+                f"{where}: time is not strictly increasing at row {i} "
+                f"(t[{i}] = {t[i]:.9g} <= t[{i - 1}] = {t[i - 1]:.9g}); sort the "
+                "samples by time and drop duplicated time stamps."
+            )
+        mean_step = (t[-1] - t[0]) / (n - 1)
+        if np.max(np.abs(steps - mean_step)) > _UNIFORM_RTOL * mean_step:
+            if not resample:
+                raise RecordingError(
+                    f"{where}: time is not uniformly sampled (step varies from "
+                    f"{steps.min():.6g} to {steps.max():.6g}); pass resample=True to "
+                    "interpolate linearly onto a uniform grid with the mean step, or "
+                    "resample it yourself."
+                )
+            grid = t[0] + mean_step * np.arange(n)
+            grid[-1] = t[-1]
+            u = np.interp(grid, t, u)
+            y = np.interp(grid, t, y)
+            t = grid
+        if np.ptp(u) == 0:
+            raise RecordingError(
+                f"{where}: input {input_name!r} is constant ({u[0]:.6g}) over the "
+                "whole record, so nothing excites the hysteresis; pick a segment "
+                "where the input varies, or check the column selection."
+            )
+        for column in (t, u, y):
+            column.setflags(write=False)
+        self.t = t
+        self.u = u
+        self.y = y
+        self.name = name
+        self.input_name = input_name
+        self.output_name = output_name
+        self.input_unit = input_unit
+        self.output_unit = output_unit
+        self.time_unit = time_unit
+
+    # ------------------------------------------------------------------ properties
+
+    @property
+    def num_samples(self) -> int:
+        """Number of samples."""
+        return int(self.t.shape[0])
+
+    @property
+    def dt(self) -> float:
+        """Sample step: the mean step (t[-1] - t[0]) / (num_samples - 1)."""
+        return float((self.t[-1] - self.t[0]) / (self.num_samples - 1))
+
+    @property
+    def sample_rate(self) -> float:
+        """Samples per unit time, 1 / dt."""
+        return 1.0 / self.dt
+
+    @property
+    def duration(self) -> float:
+        """t[-1] - t[0]."""
+        return float(self.t[-1] - self.t[0])
+
+    # --------------------------------------------------------------------- methods
+
+    def _replace(self, t, u, y) -> "Recording":
+        return Recording(
+            t,
+            u,
+            y,
+            name=self.name,
+            input_name=self.input_name,
+            output_name=self.output_name,
+            input_unit=self.input_unit,
+            output_unit=self.output_unit,
+            time_unit=self.time_unit,
+        )
+
+    def input_path(
+        self, *, interpolation: AbstractInterpolation | None = None
+    ) -> InputPath:
+        """The input as an `InputPath` on the uniform grid t[0] + k*dt."""
+        return InputPath(self.t[0], self.dt, self.u, interpolation=interpolation)
+
+    def with_output(self, y: Float[ArrayLike, " n"]) -> "Recording":
+        """A copy with the output replaced by `y` (e.g. a simulated output)."""
+        return self._replace(self.t, self.u, y)
+
+    def segment(self, start: float | None, stop: float | None) -> "Recording":
+        """The samples with start <= t <= stop (None: from the beginning / to the
+        end), as a new recording that keeps the original time stamps."""
+        tol = _UNIFORM_RTOL * self.dt
+        lo = self.t[0] if start is None else float(start)
+        hi = self.t[-1] if stop is None else float(stop)
+        if not lo < hi:
+            raise RecordingError(
+                f"Recording {self.name!r}: segment({start}, {stop}) is empty; pass "
+                "start < stop."
+            )
+        keep = (self.t >= lo - tol) & (self.t <= hi + tol)
+        count = int(keep.sum())
+        if count < 2:
+            raise RecordingError(
+                f"Recording {self.name!r}: segment({start}, {stop}) holds {count} "
+                f"sample(s) of a record spanning [{self.t[0]:.6g}, {self.t[-1]:.6g}] "
+                f"{self.time_unit}; pick a window with at least 2 samples."
+            )
+        return self._replace(self.t[keep], self.u[keep], self.y[keep])
+
+    def split(self, fraction: float) -> tuple["Recording", "Recording"]:
+        """Split at `fraction` (0 < fraction < 1) of the samples into (first,
+        second), e.g. for estimation/validation. The parts do not overlap."""
+        if not 0 < fraction < 1:
+            raise RecordingError(
+                f"Recording {self.name!r}: split fraction must lie strictly between "
+                f"0 and 1, got {fraction}."
+            )
+        n = self.num_samples
+        k = int(round(fraction * n))
+        if k < 2 or n - k < 2:
+            raise RecordingError(
+                f"Recording {self.name!r}: split({fraction}) of {n} samples leaves "
+                f"{k} and {n - k} samples; each part needs at least 2, so pick a "
+                "fraction nearer 0.5."
+            )
+        s = slice(None, k), slice(k, None)
+        return tuple(self._replace(self.t[i], self.u[i], self.y[i]) for i in s)
+
+    def resample(self, dt: float) -> "Recording":
+        """Linear interpolation onto the grid t[0] + k*dt that fits in the record.
+
+        Use it to thin or refine a record; it does not low-pass filter, so filter
+        first when reducing the rate of a signal with content above the new Nyquist
+        frequency.
+        """
+        try:
+            dt = float(dt)
+        except (TypeError, ValueError):
+            raise RecordingError(
+                f"Recording {self.name!r}: resample dt must be a number, got {dt!r}."
+            ) from None
+        if not (math.isfinite(dt) and dt > 0):
+            raise RecordingError(
+                f"Recording {self.name!r}: resample dt must be positive and finite, got {dt}."
+            )
+        count = int(math.floor(self.duration / dt * (1 + 1e-12) + 1e-9)) + 1
+        if count < 2:
+            raise RecordingError(
+                f"Recording {self.name!r}: resample({dt}) leaves {count} sample(s) "
+                f"in a record of duration {self.duration:.6g}; pass a smaller dt."
+            )
+        grid = self.t[0] + dt * np.arange(count)
+        grid = np.minimum(grid, self.t[-1])
+        return self._replace(
+            grid, np.interp(grid, self.t, self.u), np.interp(grid, self.t, self.y)
+        )
+
+    def require_samples(self, minimum: int, *, what: str = "this model") -> None:
+        """Raise `RecordingError` unless the record has at least `minimum` samples."""
+        if self.num_samples < minimum:
+            raise RecordingError(
+                f"Recording {self.name!r} has {self.num_samples} samples; {what} "
+                f"needs at least {minimum}; use a longer (or finer) recording."
+            )
+
+    # ------------------------------------------------------------------------- I/O
+
+    @classmethod
+    def load(
+        cls,
+        path: str | os.PathLike,
+        *,
+        time: str | int = "t",
+        input: str | int = "u",
+        output: str | int = "y",
+        header: bool = True,
+        resample: bool = False,
+        name: str | None = None,
+    ) -> "Recording":
+        """Read a recording from `.csv`/`.txt`, `.npz` or `.mat`.
+
+        `time`, `input` and `output` pick the columns: by header name for text files
+        with `header=True` (a unit in brackets, as in "u [V]", may be left out of the
+        name and becomes the unit), by 0-based column index (an int) for text files,
+        and by key/variable name for `.npz`/`.mat` (arrays shaped (N,), (1, N) or
+        (N, 1)). Text files may be comma, semicolon, tab or whitespace separated;
+        empty columns (such as a leading index column) are fine if not selected.
+        `resample=True` interpolates a non-uniform time axis onto a uniform grid with
+        the mean step. `name` defaults to the name stored by `save`, else the stem.
+        """
+        path = Path(path)
+        if not path.is_file():
+            reason = "is a directory" if path.is_dir() else "does not exist"
+            raise FileNotFoundError(
+                f"Recording.load: {str(path)!r} {reason}; check the path."
+            )
+        suffix = path.suffix.lower()
+        if suffix in (".csv", ".txt"):
+            columns, meta = _read_text(path, (time, input, output), header)
+        elif suffix == ".npz":
+            columns, meta = _read_arrays(path, (time, input, output), "npz")
+        elif suffix == ".mat":
+            columns, meta = _read_arrays(path, (time, input, output), "mat")
+        else:
+            raise RecordingError(
+                f"Recording.load: unknown file type {path.suffix!r} of {str(path)!r}; "
+                "use .csv, .txt, .npz or .mat."
+            )
+        labels = [
+            s if isinstance(s, str) else default
+            for s, default in ((input, "u"), (output, "y"))
+        ]
+        meta_name = meta.pop("name", None)
+        if name is None:
+            name = meta_name or path.stem
+        try:
+            return cls(
+                *columns,
+                name=name,
+                input_name=meta.pop("input_name", labels[0]),
+                output_name=meta.pop("output_name", labels[1]),
+                resample=resample,
+                **meta,
+            )
+        except RecordingError as error:
+            raise RecordingError(f"{path}: {error}") from None
+
+    def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> None:
+        """Write to `.csv` (header "t,<input_name>,<output_name>", units in
+        brackets), `.npz` or `.mat` (arrays under those names plus the metadata).
+
+        Refuses to replace an existing file unless `overwrite=True`.
+        """
+        path = Path(path)
+        suffix = path.suffix.lower()
+        if suffix not in (".csv", ".npz", ".mat"):
+            raise RecordingError(
+                f"Recording.save: unknown file type {path.suffix!r} of "
+                f"{str(path)!r}; use .csv, .npz or .mat."
+            )
+        if path.exists() and not overwrite:
+            raise FileExistsError(
+                f"Recording.save: {str(path)!r} already exists; pass overwrite=True "
+                "(--force on the command line) to replace it."
+            )
+        names = ("t", self.input_name, self.output_name)
+        if len(set(names)) < 3 or any(n.startswith(_META_PREFIX) for n in names):
+            raise RecordingError(
+                f"Recording.save: column names {names} must be distinct and must not "
+                f"start with {_META_PREFIX!r}; rename the input/output first."
+            )
+        if suffix == ".csv":
+            units = (self.time_unit, self.input_unit, self.output_unit)
+            head = [f"{n} [{u}]" if u else n for n, u in zip(names, units)]
+            with open(path, "w", newline="") as file:
+                csv.writer(file).writerow(head)
+                np.savetxt(
+                    file,
+                    np.stack([self.t, self.u, self.y], axis=1),
+                    delimiter=",",
+                    fmt="%.17g",
+                )
+            return
+        arrays = dict(zip(names, (self.t, self.u, self.y)))
+        meta = {
+            _META_PREFIX + key: getattr(self, key)
+            for key in ("name", "input_unit", "output_unit", "time_unit")
+        }
+        if suffix == ".npz":
+            with open(path, "wb") as file:
+                np.savez(file, **arrays, **{k: np.array(v) for k, v in meta.items()})
+        else:
+            import scipy.io
+
+            for n in names:
+                if not _MAT_NAME.fullmatch(n):
+                    raise RecordingError(
+                        f"Recording.save: {n!r} is not a valid MAT variable name "
+                        "(letters, digits, underscores, starting with a letter); "
+                        "save as .npz or .csv, or rename the input/output."
+                    )
+            scipy.io.savemat(path, {**arrays, **meta}, appendmat=False)
+
+
+# ----------------------------------------------------------------------- readers
+
+
+def _split_unit(cell: str) -> tuple[str, str | None]:
+    match = _UNIT_SUFFIX.match(cell)
+    if match is None:
+        return cell, None
+    return match.group(1).strip(), match.group(2).strip()
+
+
+def _read_text(
+    path: Path, selectors: Sequence[str | int], header: bool
+) -> tuple[list[np.ndarray], dict[str, str]]:
+    with open(path, encoding="utf-8-sig", newline="") as file:
+        lines = [
+            (number, line)
+            for number, line in enumerate(file.read().splitlines(), start=1)
+            if line.strip() and not line.lstrip().startswith("#")
+        ]
+    if not lines:
+        raise RecordingError(
+            f"Recording.load: {str(path)!r} is empty; pass a file with data rows."
+        )
+    first = lines[0][1]
+    delimiter = next((d for d in (",", ";", "\t") if d in first), None)
+    if delimiter is None:
+        rows = [line.split() for _, line in lines]
+    else:
+        rows = list(csv.reader((line for _, line in lines), delimiter=delimiter))
+    numbers = [number for number, _ in lines]
+    names: list[str] | None = None
+    if header:
+        names = [cell.strip().strip("\"'").strip() for cell in rows[0]]
+        rows, numbers = rows[1:], numbers[1:]
+        if not rows:
+            raise RecordingError(
+                f"Recording.load: {str(path)!r} has a header row but no data rows."
+            )
+    width = len(names) if names is not None else len(rows[0])
+
+    meta: dict[str, str] = {}
+    indices = []
+    for role, selector in zip(("time", "input", "output"), selectors):
+        index, unit = _column_index(path, role, selector, names, width)
+        indices.append(index)
+        if unit is not None:
+            meta[role + "_unit"] = unit
+        if isinstance(selector, str) and role != "time":
+            meta[role + "_name"] = selector
+
+    labels = [
+        f"column {s!r}" + (f" (index {i})" if isinstance(s, str) else "")
+        for s, i in zip(selectors, indices)
+    ]
+    columns = [np.empty(len(rows)) for _ in indices]
+    for r, (row, number) in enumerate(zip(rows, numbers)):
+        for column, index, label in zip(columns, indices, labels):
+            if index >= len(row):
+                raise RecordingError(
+                    f"Recording.load: {str(path)!r} line {number} has {len(row)} "
+                    f"cells, so {label} is missing; fix or drop that line."
+                )
+            cell = row[index].strip()
+            try:
+                column[r] = float(cell)
+            except ValueError:
+                what = "is empty" if not cell else f"holds {cell!r}, not a number"
+                raise RecordingError(
+                    f"Recording.load: {str(path)!r} line {number}, {label} {what}; "
+                    "fix or drop that line, or check the column selection."
+                ) from None
+    return columns, meta
+
+
+def _column_index(
+    path: Path,
+    role: str,
+    selector: str | int,
+    names: list[str] | None,
+    width: int,
+) -> tuple[int, str | None]:
+    if isinstance(selector, bool) or not isinstance(selector, int | str):
+        raise TypeError(
+            f"Recording.load: {role} must be a column name (str) or index (int), "
+            f"got {type(selector).__name__}."
+        )
+    if isinstance(selector, int):
+        if not 0 <= selector < width:
+            raise RecordingError(
+                f"Recording.load: {role}={selector} is out of range; "
+                f"{str(path)!r} has {width} columns (indices 0 to {width - 1})."
+            )
+        unit = None
+        if names is not None:
+            unit = _split_unit(names[selector])[1]
+        return selector, unit
+    if names is None:
+        raise RecordingError(
+            f"Recording.load: {role}={selector!r} selects a column by name, but "
+            "header=False; pass integer column indices (e.g. time=0, input=1, "
+            "output=2) or header=True."
+        )
+    if selector in names:
+        return names.index(selector), None
+    for index, cell in enumerate(names):
+        bare, unit = _split_unit(cell)
+        if bare == selector:
+            return index, unit
+    hint = ""
+    if all(_is_number(cell) for cell in names if cell):
+        hint = (
+            "; the first row looks numeric, so the file may have no header: pass "
+            "header=False and integer column indices"
+        )
+    raise RecordingError(
+        f"Recording.load: {str(path)!r} has no column {selector!r} for {role}; "
+        f"available columns: {', '.join(map(repr, names))}{hint}."
+    )
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_arrays(
+    path: Path, selectors: Sequence[str | int], kind: str
+) -> tuple[list[np.ndarray], dict[str, str]]:
+    if kind == "npz":
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {key: data[key] for key in data.files}
+        except (OSError, ValueError) as error:
+            raise RecordingError(
+                f"Recording.load: cannot read {str(path)!r} as .npz ({error}); pass "
+                "a file written by np.savez."
+            ) from None
+    else:
+        import scipy.io
+
+        try:
+            arrays = {
+                key: value
+                for key, value in scipy.io.loadmat(path).items()
+                if not key.startswith("__")
+            }
+        except NotImplementedError:
+            raise RecordingError(
+                f"Recording.load: {str(path)!r} is a MATLAB v7.3 (HDF5) file; save "
+                "it with '-v7' in MATLAB or read it with h5py and build "
+                "Recording(t, u, y)."
+            ) from None
+        except (OSError, ValueError) as error:
+            raise RecordingError(
+                f"Recording.load: cannot read {str(path)!r} as .mat ({error})."
+            ) from None
+    if not arrays:
+        raise RecordingError(
+            f"Recording.load: {str(path)!r} is empty; it holds no arrays."
+        )
+    meta = {}
+    for key in ("name", "input_unit", "output_unit", "time_unit"):
+        value = arrays.pop(_META_PREFIX + key, None)
+        if value is not None and np.asarray(value).dtype.kind == "U":
+            value = np.asarray(value).ravel()
+            meta[key] = str(value[0]) if value.size else ""
+    columns = []
+    for role, selector in zip(("time", "input", "output"), selectors):
+        if not isinstance(selector, str):
+            raise RecordingError(
+                f"Recording.load: select {kind} arrays by key name, got "
+                f"{role}={selector!r}; available keys: "
+                f"{', '.join(map(repr, arrays))}."
+            )
+        if selector not in arrays:
+            raise RecordingError(
+                f"Recording.load: {str(path)!r} has no array {selector!r} for {role}; "
+                f"available keys: {', '.join(map(repr, arrays))}."
+            )
+        value = np.asarray(arrays[selector])
+        if value.dtype.kind not in "biuf":
+            raise RecordingError(
+                f"Recording.load: array {selector!r} in {str(path)!r} has dtype "
+                f"{value.dtype}, not real numbers; select a numeric array."
+            )
+        if sum(d > 1 for d in value.shape) > 1:
+            raise RecordingError(
+                f"Recording.load: array {selector!r} in {str(path)!r} has shape "
+                f"{value.shape}; pass a single channel of shape (N,), (1, N) or (N, 1)."
+            )
+        columns.append(value.ravel())
+        if role != "time":
+            meta[role + "_name"] = selector
+    return columns, meta

@@ -1,0 +1,76 @@
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+
+
+Y = np.array([1.0, 2.0, 3.0, 4.0])
+YHAT = np.array([1.0, 2.0, 3.0, 2.0])
+
+
+def test_hand_computed_values():
+    # errors [0, 0, 0, 2]; y_max = 4
+    assert float(jh.rmse(Y, YHAT)) == pytest.approx(1.0)
+    assert float(jh.mad(Y, YHAT)) == pytest.approx(2.0)
+    assert float(jh.mrd(Y, YHAT)) == pytest.approx(50.0)
+    assert float(jh.mae(Y, YHAT)) == pytest.approx(0.5)
+    assert float(jh.nrmsd(Y, YHAT)) == pytest.approx(0.25)
+
+
+def test_second_hand_computed_example():
+    y = np.array([-2.0, 1.0, 0.5])
+    yhat = np.array([-1.0, 1.5, 0.5])  # errors [1, 0.5, 0]; y_max = 2
+    assert float(jh.rmse(y, yhat)) == pytest.approx(np.sqrt(1.25 / 3))
+    assert float(jh.mad(y, yhat)) == pytest.approx(1.0)
+    assert float(jh.mrd(y, yhat)) == pytest.approx(50.0)
+    assert float(jh.mae(y, yhat)) == pytest.approx(0.5)
+    assert float(jh.nrmsd(y, yhat)) == pytest.approx(np.sqrt(1.25 / 3) / 2)
+
+
+def test_normalisation_uses_measured_output():
+    # Scaling the model output must not change y_max.
+    y = np.array([1.0, -1.0])
+    assert float(jh.mrd(y, 10 * y)) == pytest.approx(900.0)
+    assert float(jh.mrd(10 * y, y)) == pytest.approx(90.0)
+
+
+def test_error_metrics_returns_python_floats():
+    metrics = jh.error_metrics(Y, YHAT)
+    assert list(metrics) == ["rmse", "mad", "mrd", "mae", "nrmsd"]
+    assert all(type(v) is float for v in metrics.values())
+    assert metrics == pytest.approx(
+        {"rmse": 1.0, "mad": 2.0, "mrd": 50.0, "mae": 0.5, "nrmsd": 0.25}
+    )
+
+
+def test_integer_inputs_are_promoted():
+    assert float(jh.mae([1, 2], [2, 2])) == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("fn", [jh.rmse, jh.mad, jh.mrd, jh.mae, jh.nrmsd])
+def test_shape_mismatch(fn):
+    with pytest.raises(ValueError, match=r"\(4,\) and \(3,\)"):
+        fn(Y, YHAT[:3])
+
+
+def test_shape_mismatch_error_metrics():
+    with pytest.raises(ValueError, match="same shape"):
+        jh.error_metrics(Y, YHAT[:, None])
+
+
+def test_empty():
+    with pytest.raises(ValueError, match="empty"):
+        jh.rmse(np.zeros(0), np.zeros(0))
+
+
+def test_jit_and_grad():
+    y = jnp.asarray(Y)
+    value = jax.jit(jh.rmse)(y, jnp.asarray(YHAT))
+    assert float(value) == pytest.approx(1.0)
+    # d rmse / d yhat = (yhat - y) / (N * rmse)
+    grad = jax.grad(lambda yh: jh.rmse(y, yh))(jnp.asarray(YHAT))
+    np.testing.assert_allclose(grad, (YHAT - Y) / (4 * 1.0))
+    grad_mae = jax.grad(lambda yh: jh.mae(y, yh))(jnp.asarray(YHAT) + 0.1)
+    np.testing.assert_allclose(grad_mae, np.full(4, 0.25) * np.sign(YHAT + 0.1 - Y))

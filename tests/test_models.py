@@ -1,0 +1,131 @@
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from helpers import piezo_model
+
+import jaxhyst as jh
+
+
+def _sine(amplitude, rate=500.0, periods=2):
+    t = np.arange(0, periods * 2 * np.pi + 1e-9, 1 / rate)
+    return jh.InputPath.from_samples(t, amplitude * np.sin(t))
+
+
+def _unloading_stiffness_ratio(beta, gamma, n=1.0, amplitude=2.0):
+    """Slope dh/du just after the upper reversal, relative to A (= 1): > 1, = 1, < 1
+    as beta - gamma is > 0, = 0, < 0 (the loop families of Figure 3)."""
+    model = jh.BoucWen(1.0, 0.0, 1.0, 1.0, beta, gamma, n)
+    path = _sine(amplitude)
+    _, states = jh.simulate(model, path, return_state=True)
+    u = np.asarray(path.values)
+    h = np.asarray(states[:, 0])
+    second = slice(len(u) // 2, None)
+    top = len(u) // 2 + int(np.argmax(u[second]))
+    k = 25
+    return (h[top + k] - h[top]) / (u[top + k] - u[top]), h
+
+
+@pytest.mark.parametrize(
+    "beta, gamma, family",
+    [
+        (0.6, 0.4, "steep"),  # Fig. 3a
+        (0.6, 0.6, "linear"),  # Fig. 3b
+        (0.6, -0.6, "steep"),  # Fig. 3c
+        (0.4, 0.6, "soft"),  # Fig. 3d
+        (0.8, 0.2, "steep"),  # Fig. 3f
+        (0.5, 0.5, "linear"),  # Fig. 3f
+        (0.4, 0.6, "soft"),  # Fig. 3f
+    ],
+)
+def test_figure3_loop_families(beta, gamma, family):
+    ratio, h = _unloading_stiffness_ratio(beta, gamma)
+    assert np.all(np.isfinite(h))
+    if family == "steep":
+        assert ratio > 1.05
+    elif family == "linear":
+        assert abs(ratio - 1) < 1e-3
+    else:
+        assert ratio < 0.95
+    # The loop encloses area (hysteresis) unless the operator is degenerate.
+    assert float(np.ptp(h)) > 0
+
+
+def test_figure3e_unstable_set_is_rejected():
+    # Fig. 3e (A = 1, beta = 0.4, gamma = -0.6): beta + gamma < 0 with beta - gamma > 0
+    report = jh.bibo_stability(jh.BoucWen(1.0, 0.5, 1.0, 1.0, 0.4, -0.6, 1.0))
+    assert not report.stable and "beta+gamma" in report.reason
+
+
+STABLE = [
+    (1.0, 0.6, 0.4),
+    (1.0, 0.6, -0.6 + 1.3),
+    (1.0, 0.4, 0.6),
+    (1.0, 0.0, 0.6),
+    (-1.0, 0.6, 0.4),
+    (-1.0, 0.5, -0.8),
+]
+UNSTABLE = [
+    (1.0, -0.2, -0.6),  # A > 0: beta + gamma < 0
+    (1.0, -0.4, 0.2),  # A > 0: beta - gamma < 0 with beta < 0
+    (-1.0, 0.4, 0.6),  # A < 0: beta - gamma < 0, beta + gamma > 0
+    (-1.0, -0.6, -0.8),  # A < 0: beta + gamma < 0 with beta < 0
+]
+
+
+@pytest.mark.parametrize("A, beta, gamma", STABLE)
+def test_table2_stable_sets_stay_bounded(A, beta, gamma):
+    model = jh.BoucWen(1.0, 0.5, 1.0, A, beta, gamma, 1.5)
+    report = jh.bibo_stability(model)
+    assert report.stable, report.reason
+    assert bool(jh.is_bibo_stable(A, beta, gamma, 1.5))
+    bounds = []
+    for amplitude in (1.0, 10.0, 100.0):
+        _, states = jh.simulate(model, _sine(amplitude, rate=50.0), return_state=True)
+        bounds.append(float(jnp.max(jnp.abs(states))))
+    assert np.all(np.isfinite(bounds))
+    # Bounded input, bounded h: h saturates instead of growing with the amplitude.
+    assert bounds[2] < 5 * bounds[1]
+
+
+@pytest.mark.parametrize("A, beta, gamma", UNSTABLE)
+def test_table2_unstable_sets_are_rejected(A, beta, gamma):
+    model = jh.BoucWen(1.0, 0.5, 1.0, A, beta, gamma, 1.5)
+    report = jh.bibo_stability(model)
+    assert not report.stable
+    assert "Table 2 needs" in report.reason
+    assert not bool(jh.is_bibo_stable(A, beta, gamma, 1.5))
+
+
+def test_unstable_set_grows_without_bound():
+    model = jh.BoucWen(1.0, 0.5, 1.0, 1.0, -0.2, -0.6, 1.5)
+    _, states = jh.simulate(
+        model, _sine(10.0, rate=50.0), return_state=True, throw=False
+    )
+    assert not np.all(np.isfinite(states)) or float(jnp.max(jnp.abs(states))) > 1e3
+
+
+def test_stability_needs_positive_d_and_n_at_least_one():
+    assert not jh.bibo_stability(jh.BoucWen(1.0, 0.5, -1.0, 1.0, 0.6, 0.4, 1.0))
+    assert not jh.bibo_stability(piezo_model(n=0.5))
+    assert jh.bibo_stability(piezo_model())
+    # The benchmark oscillator's operator (beta*gamma = 800, beta*delta = -1100) lies
+    # outside Table 2's classes: only the structure's stiffness keeps it bounded.
+    report = jh.bibo_stability(jh.HystereticOscillator.benchmark_truth())
+    assert not report.stable and "beta+gamma=-300" in report.reason
+
+
+def test_parameters_and_replace():
+    model = piezo_model()
+    assert list(model.parameters()) == ["k1", "k2", "A1", "beta1", "gamma1", "n"]
+    assert float(model.replace(k1=2.0).k1) == 2.0
+    assert float(model.k1) == 0.3  # the original is untouched
+    corrected = jh.CorrectedPiezoBoucWen.from_piezo(model, phi=0.1)
+    assert float(corrected.phi) == pytest.approx(0.1) and float(corrected.eps) == 0
+
+
+def test_smoothing_rules_are_consistent():
+    x = jnp.array([-1.0, -0.3, -1e-3, 0.0, 1e-3, 0.3, 1.0])
+    for rule in (jh.ExactSign(), jh.TanhSign(0.1), jh.AlgebraicSign(0.1)):
+        np.testing.assert_allclose(rule.abs(x), x * rule.sign(x))
+        assert float(rule.abs(0.0)) == 0.0
+    np.testing.assert_allclose(jh.TanhSign(1e-6).sign(x[x != 0]), np.sign(x[x != 0]))
