@@ -2,24 +2,29 @@
 
 import importlib.metadata
 
-from ._inputs import (
-    AbstractInterpolation as AbstractInterpolation,
-    CubicInterpolation as CubicInterpolation,
-    InputPath as InputPath,
-    LinearInterpolation as LinearInterpolation,
-)
-from ._smoothing import (
-    AbstractSmoothing as AbstractSmoothing,
-    AlgebraicSign as AlgebraicSign,
-    ExactSign as ExactSign,
-    TanhSign as TanhSign,
-)
-
 from ._datasets import (
     BoucWenBenchmark as BoucWenBenchmark,
     default_data_dir as default_data_dir,
     load_bouc_wen_benchmark as load_bouc_wen_benchmark,
     load_piezo_actuator as load_piezo_actuator,
+)
+from ._identify import (
+    AbstractPolish as AbstractPolish,
+    AdamPolish as AdamPolish,
+    BFGSPolish as BFGSPolish,
+    Fit as Fit,
+    Identifiability as Identifiability,
+    LevenbergMarquardtPolish as LevenbergMarquardtPolish,
+    PolishResult as PolishResult,
+    Problem as Problem,
+    identifiability as identifiability,
+    identify as identify,
+)
+from ._inputs import (
+    AbstractInterpolation as AbstractInterpolation,
+    CubicInterpolation as CubicInterpolation,
+    InputPath as InputPath,
+    LinearInterpolation as LinearInterpolation,
 )
 from ._metrics import (
     error_metrics as error_metrics,
@@ -29,6 +34,19 @@ from ._metrics import (
     nrmsd as nrmsd,
     rmse as rmse,
 )
+from ._models.base import (
+    AbstractHysteresisModel as AbstractHysteresisModel,
+    Drive as Drive,
+)
+from ._models.bouc_wen import (
+    BoucWen as BoucWen,
+    CorrectedPiezoBoucWen as CorrectedPiezoBoucWen,
+    PiezoBoucWen as PiezoBoucWen,
+    PiezoStage as PiezoStage,
+    ShiftedDrive as ShiftedDrive,
+)
+from ._models.oscillator import HystereticOscillator as HystereticOscillator
+from ._params import ParameterSpace as ParameterSpace
 from ._recording import Recording as Recording, RecordingError as RecordingError
 from ._signals import (
     AbstractSignal as AbstractSignal,
@@ -45,32 +63,29 @@ from ._signals import (
     sample as sample,
     sample_times as sample_times,
 )
-
-# [swarm-exports]
-from ._models.base import (
-    AbstractHysteresisModel as AbstractHysteresisModel,
-    Drive as Drive,
-)
-from ._models.bouc_wen import (
-    BoucWen as BoucWen,
-    CorrectedPiezoBoucWen as CorrectedPiezoBoucWen,
-    PiezoBoucWen as PiezoBoucWen,
-    PiezoStage as PiezoStage,
-    ShiftedDrive as ShiftedDrive,
-)
-from ._models.oscillator import HystereticOscillator as HystereticOscillator
 from ._simulate import (
+    RK4 as RK4,
     AbstractSimulationSolver as AbstractSimulationSolver,
     DiffraxSolver as DiffraxSolver,
-    RK4 as RK4,
     simulate as simulate,
 )
+from ._smoothing import (
+    AbstractSmoothing as AbstractSmoothing,
+    AlgebraicSign as AlgebraicSign,
+    ExactSign as ExactSign,
+    TanhSign as TanhSign,
+)
 from ._stability import (
+    StabilityReport as StabilityReport,
     bibo_stability as bibo_stability,
     is_bibo_stable as is_bibo_stable,
-    StabilityReport as StabilityReport,
 )
-# [core-exports]
+from ._swarm import (
+    MPSO as MPSO,
+    SwarmResult as SwarmResult,
+    SwarmState as SwarmState,
+    run_swarm as run_swarm,
+)
 
 
 __version__ = importlib.metadata.version("jaxhyst")

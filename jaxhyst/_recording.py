@@ -12,6 +12,7 @@ import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import equinox as eqx
 import numpy as np
@@ -66,12 +67,13 @@ class Recording(eqx.Module):
     t: Float[np.ndarray, " n"]
     u: Float[np.ndarray, " n"]
     y: Float[np.ndarray, " n"]
-    name: str
-    input_name: str
-    output_name: str
-    input_unit: str
-    output_unit: str
-    time_unit: str
+    # Metadata is static, so a Recording can be passed through `jax.jit`.
+    name: str = eqx.field(static=True)
+    input_name: str = eqx.field(static=True)
+    output_name: str = eqx.field(static=True)
+    input_unit: str = eqx.field(static=True)
+    output_unit: str = eqx.field(static=True)
+    time_unit: str = eqx.field(static=True)
 
     def __init__(
         self,
@@ -106,7 +108,8 @@ class Recording(eqx.Module):
             f"output {output_name!r}",
         )
         t, u, y = (
-            _as_column(label, values, where) for label, values in zip(labels, (t, u, y))
+            _as_column(label, values, where)
+            for label, values in zip(labels, (t, u, y), strict=True)
         )
         if not t.shape == u.shape == y.shape:
             raise RecordingError(
@@ -119,7 +122,7 @@ class Recording(eqx.Module):
             raise RecordingError(
                 f"{where}: has {n} sample(s); a recording needs at least 2."
             )
-        for label, column in zip(labels, (t, u, y)):
+        for label, column in zip(labels, (t, u, y), strict=True):
             bad = ~np.isfinite(column)
             if bad.any():
                 row = int(np.argmax(bad))
@@ -252,8 +255,9 @@ class Recording(eqx.Module):
                 f"{k} and {n - k} samples; each part needs at least 2, so pick a "
                 "fraction nearer 0.5."
             )
-        s = slice(None, k), slice(k, None)
-        return tuple(self._replace(self.t[i], self.u[i], self.y[i]) for i in s)
+        first = self._replace(self.t[:k], self.u[:k], self.y[:k])
+        second = self._replace(self.t[k:], self.u[k:], self.y[k:])
+        return first, second
 
     def resample(self, dt: float) -> "Recording":
         """Linear interpolation onto the grid t[0] + k*dt that fits in the record.
@@ -270,7 +274,8 @@ class Recording(eqx.Module):
             ) from None
         if not (math.isfinite(dt) and dt > 0):
             raise RecordingError(
-                f"Recording {self.name!r}: resample dt must be positive and finite, got {dt}."
+                f"Recording {self.name!r}: resample dt must be positive and "
+                f"finite, got {dt}."
             )
         count = int(math.floor(self.duration / dt * (1 + 1e-12) + 1e-9)) + 1
         if count < 2:
@@ -380,7 +385,7 @@ class Recording(eqx.Module):
             )
         if suffix == ".csv":
             units = (self.time_unit, self.input_unit, self.output_unit)
-            head = [f"{n} [{u}]" if u else n for n, u in zip(names, units)]
+            head = [f"{n} [{u}]" if u else n for n, u in zip(names, units, strict=True)]
             with open(path, "w", newline="") as file:
                 csv.writer(file).writerow(head)
                 np.savetxt(
@@ -390,14 +395,24 @@ class Recording(eqx.Module):
                     fmt="%.17g",
                 )
             return
-        arrays = dict(zip(names, (self.t, self.u, self.y)))
+        arrays = dict(zip(names, (self.t, self.u, self.y), strict=True))
         meta = {
             _META_PREFIX + key: getattr(self, key)
             for key in ("name", "input_unit", "output_unit", "time_unit")
         }
         if suffix == ".npz":
+            if {"file", "allow_pickle"} & set(names):
+                raise RecordingError(
+                    f"Recording.save: column names {names} clash with np.savez "
+                    "arguments ('file', 'allow_pickle'); save as .mat or .csv, or "
+                    "rename the input/output."
+                )
+            payload: dict[str, Any] = {
+                **arrays,
+                **{k: np.array(v) for k, v in meta.items()},
+            }
             with open(path, "wb") as file:
-                np.savez(file, **arrays, **{k: np.array(v) for k, v in meta.items()})
+                np.savez(file, **payload)
         else:
             import scipy.io
 
@@ -453,7 +468,7 @@ def _read_text(
 
     meta: dict[str, str] = {}
     indices = []
-    for role, selector in zip(("time", "input", "output"), selectors):
+    for role, selector in zip(("time", "input", "output"), selectors, strict=True):
         index, unit = _column_index(path, role, selector, names, width)
         indices.append(index)
         if unit is not None:
@@ -463,11 +478,11 @@ def _read_text(
 
     labels = [
         f"column {s!r}" + (f" (index {i})" if isinstance(s, str) else "")
-        for s, i in zip(selectors, indices)
+        for s, i in zip(selectors, indices, strict=True)
     ]
     columns = [np.empty(len(rows)) for _ in indices]
-    for r, (row, number) in enumerate(zip(rows, numbers)):
-        for column, index, label in zip(columns, indices, labels):
+    for r, (row, number) in enumerate(zip(rows, numbers, strict=True)):
+        for column, index, label in zip(columns, indices, labels, strict=True):
             if index >= len(row):
                 raise RecordingError(
                     f"Recording.load: {str(path)!r} line {number} has {len(row)} "
@@ -581,7 +596,7 @@ def _read_arrays(
             value = np.asarray(value).ravel()
             meta[key] = str(value[0]) if value.size else ""
     columns = []
-    for role, selector in zip(("time", "input", "output"), selectors):
+    for role, selector in zip(("time", "input", "output"), selectors, strict=True):
         if not isinstance(selector, str):
             raise RecordingError(
                 f"Recording.load: select {kind} arrays by key name, got "

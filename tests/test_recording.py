@@ -1,3 +1,4 @@
+import jax
 import numpy as np
 import pytest
 import scipy.io
@@ -130,6 +131,12 @@ def test_option_types():
 
 
 # ------------------------------------------------------------------------ methods
+
+
+def test_passes_through_jit():
+    rec = _recording()
+    value = jax.jit(lambda r: jh.rmse(r.y, 0 * r.y))(rec)
+    assert float(value) == pytest.approx(np.sqrt(np.mean(rec.y**2)))
 
 
 def test_input_path():

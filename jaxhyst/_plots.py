@@ -1,0 +1,239 @@
+"""Paper-style figures: hysteresis loops, time histories and absolute-error trends.
+
+Matplotlib is an optional dependency (`pip install 'jaxhyst[plot]'`) and is imported
+only when a figure is drawn. Figures are built on `matplotlib.figure.Figure` with the
+Agg canvas, never through `pyplot`, so plotting changes no global matplotlib state
+(backend, current figure) and works headless. Every function writes one PNG and
+returns its path; like `Recording.save`, it refuses to replace an existing file
+unless `overwrite=True`.
+
+Curves are passed as `{label: values}` dictionaries, drawn in order: the first solid
+(e.g. the measurement), the rest dashed (e.g. models), so overlaid curves stay visible.
+"""
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from jaxtyping import ArrayLike
+
+
+_INSTALL_HINT = "install the plot extra: pip install 'jaxhyst[plot]'"
+_DPI = 150
+_STYLES = ("-", "--", "-.", ":")
+
+
+def require_matplotlib() -> None:
+    """Raise ImportError (with the install hint) unless matplotlib can be imported.
+
+    Call it before a long computation whose result is to be plotted, to fail early.
+    """
+    _new_figure_class()
+
+
+def _new_figure_class():
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise ImportError(
+            f"jaxhyst plots need matplotlib, which is not installed; {_INSTALL_HINT}"
+        ) from None
+    return Figure, FigureCanvasAgg
+
+
+def _figure(nrows: int = 1, *, height: float = 4.5, sharex: bool = False):
+    Figure, FigureCanvasAgg = _new_figure_class()
+    figure = Figure(figsize=(7.0, height), layout="constrained")
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(nrows, 1, sharex=sharex, squeeze=False)[:, 0]
+    return figure, list(axes)
+
+
+def _target(path: str | os.PathLike, overwrite: bool, owner: str) -> Path:
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise ValueError(
+            f"{owner}: {str(path)!r} is not a .png path; pass a file name ending "
+            "in .png."
+        )
+    if path.exists() and not overwrite:
+        raise FileExistsError(
+            f"{owner}: {str(path)!r} already exists; pass overwrite=True "
+            "(--force on the command line) to replace it."
+        )
+    if not path.parent.is_dir():
+        raise FileNotFoundError(
+            f"{owner}: folder {str(path.parent)!r} does not exist; create it first."
+        )
+    return path
+
+
+def _vector(values: Any, what: str, owner: str, length: int | None = None):
+    array = np.asarray(values, dtype=np.float64)
+    if array.ndim != 1:
+        raise ValueError(
+            f"{owner}: {what} must be one-dimensional, got shape {array.shape}."
+        )
+    if length is not None and array.shape[0] != length:
+        raise ValueError(
+            f"{owner}: {what} has {array.shape[0]} samples but the x-axis has "
+            f"{length}; pass curves sampled at the same points."
+        )
+    return array
+
+
+def _curves(
+    curves: Mapping[str, Any], length: int, owner: str, scale: float
+) -> list[tuple[str, np.ndarray]]:
+    if not isinstance(curves, Mapping) or not curves:
+        raise ValueError(
+            f"{owner}: curves must be a non-empty dict {{label: values}}, got "
+            f"{curves!r:.60}."
+        )
+    return [
+        (str(label), scale * _vector(values, f"curve {label!r}", owner, length))
+        for label, values in curves.items()
+    ]
+
+
+def _draw(
+    axis, x: np.ndarray, curves: list[tuple[str, np.ndarray]], legend: bool = True
+) -> None:
+    for index, (label, values) in enumerate(curves):
+        axis.plot(
+            x,
+            values,
+            linestyle=_STYLES[min(index, len(_STYLES) - 1)],
+            linewidth=1.6 if index == 0 else 1.3,
+            label=label,
+        )
+    axis.grid(True, alpha=0.3)
+    if legend and (len(curves) > 1 or curves[0][0]):
+        axis.legend(loc="best", fontsize="small")
+
+
+def _save(figure, path: Path) -> Path:
+    figure.savefig(path, dpi=_DPI)
+    return path
+
+
+def plot_loop(
+    path: str | os.PathLike,
+    u: ArrayLike,
+    curves: Mapping[str, ArrayLike],
+    *,
+    xlabel: str,
+    ylabel: str,
+    title: str,
+    scale: float = 1.0,
+    detrend: bool = False,
+    overwrite: bool = False,
+) -> Path:
+    """Hysteresis loop(s): every curve in `curves` ({label: y}) against the input `u`.
+
+    `scale` multiplies every y before drawing (e.g. 1e6 for metres -> micrometres);
+    put the matching unit in `ylabel`. `detrend=True` adds a second panel with every
+    curve minus one straight line, the least-squares line through the first curve,
+    which shows the loop opening when a linear part dominates (as in piezo
+    actuators). Writes a PNG to `path` and returns it.
+    """
+    owner = "plot_loop"
+    target = _target(path, overwrite, owner)
+    x = _vector(u, "u", owner)
+    lines = _curves(curves, x.shape[0], owner, scale)
+    if not detrend:
+        figure, (axis,) = _figure(height=5.0)
+        _draw(axis, x, lines)
+        axis.set_xlabel(xlabel)
+        axis.set_ylabel(ylabel)
+        axis.set_title(title)
+        return _save(figure, target)
+    figure, (axis, lower) = _figure(2, height=7.5, sharex=True)
+    _draw(axis, x, lines)
+    axis.set_ylabel(ylabel)
+    axis.set_title(title)
+    slope, intercept = np.polyfit(x, lines[0][1], 1)
+    line = slope * x + intercept
+    _draw(
+        lower,
+        x,
+        [(label, values - line) for label, values in lines],
+        legend=len(lines) > 1,
+    )
+    lower.set_xlabel(xlabel)
+    lower.set_ylabel(f"{ylabel}\nminus straight line")
+    lower.set_title(
+        f"loop opening: minus the line {slope:.4g} u {'-' if intercept < 0 else '+'} "
+        f"{abs(intercept):.3g} fitted to {lines[0][0] or 'the first curve'}",
+        fontsize="medium",
+    )
+    return _save(figure, target)
+
+
+def plot_time_history(
+    path: str | os.PathLike,
+    t: ArrayLike,
+    u: ArrayLike,
+    curves: Mapping[str, ArrayLike],
+    *,
+    ulabel: str = "input u",
+    ylabel: str = "output y",
+    tlabel: str = "time t [s]",
+    title: str = "",
+    scale: float = 1.0,
+    overwrite: bool = False,
+) -> Path:
+    """Time histories: the input `u(t)` on top, every curve in `curves` ({label: y})
+    below, on a shared time axis. `scale` multiplies every y (not u).
+
+    Writes a PNG to `path` and returns it.
+    """
+    owner = "plot_time_history"
+    target = _target(path, overwrite, owner)
+    time = _vector(t, "t", owner)
+    inputs = _vector(u, "u", owner, time.shape[0])
+    lines = _curves(curves, time.shape[0], owner, scale)
+    figure, (top, bottom) = _figure(2, height=6.0, sharex=True)
+    top.plot(time, inputs, color="0.3", linewidth=1.3)
+    top.grid(True, alpha=0.3)
+    top.set_ylabel(ulabel)
+    if title:
+        top.set_title(title)
+    _draw(bottom, time, lines)
+    bottom.set_ylabel(ylabel)
+    bottom.set_xlabel(tlabel)
+    return _save(figure, target)
+
+
+def plot_error_trend(
+    path: str | os.PathLike,
+    t: ArrayLike,
+    errors: Mapping[str, ArrayLike],
+    *,
+    ylabel: str = "absolute error |y - yhat|",
+    tlabel: str = "time t [s]",
+    title: str = "Absolute error",
+    scale: float = 1.0,
+    log: bool = False,
+    overwrite: bool = False,
+) -> Path:
+    """Absolute-error trend: every series in `errors` ({label: |y - yhat|}) against
+    time. `scale` multiplies every series; `log=True` uses a logarithmic y-axis.
+
+    Writes a PNG to `path` and returns it.
+    """
+    owner = "plot_error_trend"
+    target = _target(path, overwrite, owner)
+    time = _vector(t, "t", owner)
+    lines = _curves(errors, time.shape[0], owner, scale)
+    figure, (axis,) = _figure()
+    _draw(axis, time, lines)
+    if log:
+        axis.set_yscale("log")
+    axis.set_xlabel(tlabel)
+    axis.set_ylabel(ylabel)
+    axis.set_title(title)
+    return _save(figure, target)

@@ -1,0 +1,180 @@
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+
+
+TRUTH = jh.PiezoBoucWen(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
+
+
+def _recording(model=TRUTH, rate=200.0, noise=1e-3, seed=0, signal=None):
+    signal = jh.paper_u1() if signal is None else signal
+    path = jh.sample(signal, rate)
+    y = np.asarray(jh.simulate(model, path))
+    sigma = noise * np.max(np.abs(y))
+    rng = np.random.default_rng(seed)
+    return (
+        jh.Recording(
+            np.asarray(path.times),
+            np.asarray(path.values),
+            y + sigma * rng.standard_normal(y.size),
+            name="synthetic",
+        ),
+        sigma,
+    )
+
+
+TEMPLATE = jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5)
+FAST = jh.MPSO(num_particles=48, num_iterations=120)
+
+
+def test_parameter_space_round_trip_and_scaling():
+    space = jh.ParameterSpace(
+        TEMPLATE,
+        {"k1": (-1.0, 1.0), "beta1": (1e-3, 10.0), "n": (1.0, 3.0)},
+        log_scale=["beta1"],
+    )
+    z = jnp.array([0.25, 0.5, 0.75])
+    values = space.to_values(z)
+    np.testing.assert_allclose(values, [-0.5, 0.1, 2.5], rtol=1e-12)
+    np.testing.assert_allclose(space.to_unit(values), z, rtol=1e-12)
+    model = space.to_model(z)
+    assert float(model.k2) == 1.0  # fixed parameters untouched
+    np.testing.assert_allclose(space.from_model(model), z, rtol=1e-12)
+
+
+def test_parameter_space_errors():
+    with pytest.raises(ValueError, match="not parameters"):
+        jh.ParameterSpace(TEMPLATE, {"k9": (0.0, 1.0)})
+    with pytest.raises(ValueError, match="lower < upper"):
+        jh.ParameterSpace(TEMPLATE, {"k1": (1.0, 0.0)})
+    with pytest.raises(ValueError, match="include zero"):
+        jh.ParameterSpace(TEMPLATE, {"k1": (-1.0, 1.0)}, log_scale=["k1"])
+    with pytest.raises(ValueError, match="constant"):
+        jh.ParameterSpace.default(TEMPLATE, 0.0, 1.0, 10.0)
+
+
+def test_identify_recovers_truth_to_noise_floor():
+    recording, sigma = _recording()
+    fit = jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=FAST)
+    # At the noise floor: the residual is the noise (slightly below: fitted noise).
+    assert fit.metrics["rmse"] < 1.02 * sigma
+    # The identifiable combinations match the truth: k1, n, and the gauge-invariant
+    # k2*A1, beta1*|c|^(n-1)... checked through the noise-free output.
+    assert float(fit.model.k1) == pytest.approx(0.3, rel=2e-2)
+    assert float(fit.model.n) == pytest.approx(1.5, rel=5e-2)
+    path = recording.input_path()
+    clean = jh.simulate(TRUTH, path)
+    assert float(jnp.sqrt(jnp.mean((fit.predicted - clean) ** 2))) < 0.5 * sigma
+    gain = float(fit.model.k2 * fit.model.A1)
+    assert gain == pytest.approx(0.5, rel=5e-2)
+    # Polish never makes things worse than the swarm.
+    assert fit.polish is not None and fit.swarm is not None
+    assert fit.polish.loss_history[-1] <= fit.polish.loss_history[0]
+    assert fit.metrics["rmse"] <= fit.swarm.best_fitness * 1.0001 + 1e-12
+
+
+def test_identifiability_reports_the_scaling_symmetry():
+    recording, _ = _recording(noise=0.0)
+    report = jh.identifiability(
+        TRUTH, recording.input_path(), jnp.asarray(recording.y)
+    )
+    assert len(report.unidentifiable) == 1
+    direction = report.unidentifiable[0]
+    # h -> c*h: relative changes k2 : A1 : beta1 : gamma1 = -1 : 1 : (1-n) : (1-n)
+    ratio = direction["k2"] / direction["A1"]
+    assert ratio == pytest.approx(-1.0, rel=1e-4)
+    assert direction["beta1"] / direction["A1"] == pytest.approx(1 - 1.5, rel=1e-3)
+    assert direction["gamma1"] / direction["A1"] == pytest.approx(1 - 1.5, rel=1e-3)
+    assert "k1" not in direction and "n" not in direction
+    # The symmetry is exact: moving along it leaves the output unchanged.
+    c = 1.7
+    moved = TRUTH.replace(
+        k2=TRUTH.k2 / c,
+        A1=c * TRUTH.A1,
+        beta1=TRUTH.beta1 * c ** (1 - 1.5),
+        gamma1=TRUTH.gamma1 * c ** (1 - 1.5),
+    )
+    path = recording.input_path()
+    np.testing.assert_allclose(
+        jh.simulate(moved, path), jh.simulate(TRUTH, path), atol=1e-10
+    )
+
+
+def test_gauge_fixed_fit_has_finite_standard_errors():
+    recording, _ = _recording(seed=3)
+    fit = jh.identify(TEMPLATE, recording, key=jax.random.key(1), swarm=FAST)
+    report = fit.identifiability
+    assert report is not None
+    assert "A1" not in report.free_names
+    assert all(np.isfinite(v) and v > 0 for v in report.standard_errors.values())
+    # Without the gauge, the redundant direction makes the free set unidentifiable.
+    ungauged = jh.identifiability(
+        fit.model, recording.input_path(), jnp.asarray(recording.y)
+    )
+    assert all(np.isnan(v) for v in ungauged.standard_errors.values())
+
+
+def test_same_key_same_fit_and_polish_variants():
+    recording, _ = _recording(rate=100.0)
+    small = jh.MPSO(num_particles=24, num_iterations=30)
+    a = jh.identify(TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None)
+    b = jh.identify(TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None)
+    assert a.metrics == b.metrics
+    for polish in (jh.BFGSPolish(max_steps=30), jh.AdamPolish(max_steps=100)):
+        fit = jh.identify(
+            TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=polish
+        )
+        assert fit.polish is not None
+        assert fit.metrics["rmse"] <= a.metrics["rmse"] * (1 + 1e-9)
+
+
+def test_two_stage_corrected_fit_finds_asymmetry():
+    truth = jh.CorrectedPiezoBoucWen.from_piezo(TRUTH, phi=0.0, eps=0.02)
+    recording, sigma = _recording(truth)
+    base = jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=FAST)
+    corrected_template = jh.CorrectedPiezoBoucWen.from_piezo(base.model)
+    space = jh.ParameterSpace(
+        corrected_template, {"phi": (-0.5, 0.5), "eps": (-0.1, 0.1)}
+    )
+    second = jh.identify(
+        corrected_template,
+        recording,
+        key=jax.random.key(1),
+        space=space,
+        swarm=jh.MPSO(num_particles=24, num_iterations=60),
+    )
+    assert second.metrics["rmse"] < base.metrics["rmse"]
+    joint = jh.identify(
+        corrected_template,
+        recording,
+        key=jax.random.key(2),
+        swarm=None,
+        start=second.model,
+    )
+    assert joint.metrics["rmse"] < 1.05 * sigma
+
+
+def test_identify_bad_inputs():
+    recording, _ = _recording(rate=10.0)
+    with pytest.raises(TypeError, match="Recording"):
+        jh.identify(TEMPLATE, np.zeros(5), key=jax.random.key(0))  # type: ignore
+    with pytest.raises(ValueError, match="start"):
+        jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=None)
+
+
+def test_fit_does_not_retrace_for_new_parameter_values():
+    recording, _ = _recording(rate=50.0)
+    space = jh.ParameterSpace.default(TEMPLATE, 4.0, 1.0, 10.0)
+    problem = jh.Problem(space, recording.input_path(), jnp.asarray(recording.y), jh.RK4())
+
+    @eqx.filter_jit
+    @eqx.debug.assert_max_traces(max_traces=1)
+    def loss(z, p):
+        return p.rmse(z)
+
+    for value in (0.2, 0.5, 0.8):
+        loss(jnp.full(space.dimension, value), problem)
