@@ -9,8 +9,10 @@ multisines, where a piecewise-linear input under-represents the signal between s
 """
 
 import abc
+import functools
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
@@ -176,23 +178,14 @@ class InputPath(eqx.Module):
 
         The shifted point stays on the same interval whenever it can (so a zero shift
         reproduces `on_interval` exactly, one-sided rate included); outside the record
-        the path holds its end value with zero rate.
+        the path holds its end value with zero rate. Differentiable in `shift`: the
+        rate's derivative is the input's curvature, smoothed over neighbouring samples
+        (a piecewise-linear path has kinks, whose exact derivative would be zero almost
+        everywhere and blind a gradient-based fit of the shift).
         """
-        offset = jnp.asarray(shift, self.dt.dtype) / self.dt
-        whole = jnp.floor(offset)
-        target = interval + whole.astype(jnp.int32)
-        target_frac = frac + (offset - whole)
-        spill = target_frac > 1
-        target = jnp.where(spill, target + 1, target)
-        target_frac = jnp.where(spill, target_frac - 1, target_frac)
-        last = self.num_samples - 1
-        inside = (target >= 0) & (target <= last - 1)
-        clamped = jnp.clip(target, 0, last - 1)
-        frac_in = jnp.where(
-            target < 0, 0.0, jnp.where(target > last - 1, 1.0, target_frac)
+        return _shifted_read(
+            self.interpolation, self.values, self.dt, interval, frac, shift
         )
-        u, udot = self.on_interval(clamped, frac_in)
-        return u, jnp.where(inside, udot, 0)
 
     def evaluate(
         self, t: Float[ArrayLike, "..."]
@@ -205,3 +198,46 @@ class InputPath(eqx.Module):
         inside = (position >= 0) & (position <= last)
         u, udot = self.on_interval(interval, jnp.clip(frac, 0, 1))
         return u, jnp.where(inside, udot, 0)
+
+
+def _shifted_position(values, dt, interval, frac, shift):
+    offset = shift / dt
+    whole = jnp.floor(offset)
+    target = interval + whole.astype(jnp.int32)
+    target_frac = frac + (offset - whole)
+    spill = target_frac > 1
+    target = jnp.where(spill, target + 1, target)
+    target_frac = jnp.where(spill, target_frac - 1, target_frac)
+    last = values.shape[0] - 1
+    inside = (target >= 0) & (target <= last - 1)
+    clamped = jnp.clip(target, 0, last - 1)
+    frac_in = jnp.where(target < 0, 0.0, jnp.where(target > last - 1, 1.0, target_frac))
+    return clamped, frac_in.astype(values.dtype), inside
+
+
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
+def _shifted_read(interpolation, values, dt, interval, frac, shift):
+    index, where, inside = _shifted_position(values, dt, interval, frac, shift)
+    u, udot = interpolation.on_interval(values, dt, index, where)
+    return u, jnp.where(inside, udot, 0)
+
+
+@_shifted_read.defjvp
+def _shifted_read_jvp(interpolation, primals, tangents):
+    values, dt, interval, frac, shift = primals
+    d_values, _, _, d_frac, d_shift = tangents
+    u, udot = _shifted_read(interpolation, values, dt, interval, frac, shift)
+    index, where, inside = _shifted_position(values, dt, interval, frac, shift)
+    # Linear in the values: their tangent goes through the same read.
+    du_v, dudot_v = _shifted_read(interpolation, d_values, dt, interval, frac, shift)
+    n = values.shape[0]
+
+    def curvature(j):
+        j = jnp.clip(j, 1, n - 2)
+        return (values[j + 1] - 2 * values[j] + values[j - 1]) / dt**2
+
+    # Curvature at the two samples bounding the point, blended by position.
+    second = (1 - where) * curvature(index) + where * curvature(index + 1)
+    second = jnp.where(inside, second, 0)
+    d_time = d_shift + d_frac * dt
+    return (u, udot), (du_v + udot * d_time, dudot_v + second * d_time)
