@@ -86,6 +86,14 @@ from ._swarm import (
     SwarmState as SwarmState,
     run_swarm as run_swarm,
 )
+from ._synthetic import (
+    ConcealedCase as ConcealedCase,
+    ConcealedTruth as ConcealedTruth,
+    base_truth as base_truth,
+    concealed_recording as concealed_recording,
+    demo_recording as demo_recording,
+    rich_excitation as rich_excitation,
+)
 
 
 __version__ = importlib.metadata.version("jaxhyst")

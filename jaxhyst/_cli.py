@@ -15,6 +15,25 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NamedTuple, NoReturn
 
+import jax
+import numpy as np
+
+from ._models.base import AbstractHysteresisModel
+from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
+from ._plots import plot_loop, require_matplotlib
+from ._recording import Recording, RecordingError
+from ._signals import (
+    AbstractSignal,
+    Chirp,
+    Multisine,
+    Triangle,
+    paper_u1,
+    paper_u2,
+    sample as sample_signal,
+)
+from ._simulate import RK4, simulate
+from ._stability import bibo_stability
+
 
 _PROG = "jaxhyst"
 
@@ -65,21 +84,28 @@ def _check_outputs(out: str | os.PathLike, names: Sequence[str], force: bool):
     return paths
 
 
+def _display_unit(unit: str) -> tuple[float, str]:
+    """(scale, unit) to show a quantity stored in `unit`: metres as micrometres."""
+    if unit == "m":
+        return 1e6, "µm"
+    if unit == "um":
+        return 1.0, "µm"
+    return 1.0, unit
+
+
 # --------------------------------------------------------------------- simulate
 
 
 class _ModelChoice(NamedTuple):
     description: str
-    build: Callable[[], object]
+    build: Callable[[], AbstractHysteresisModel]
     input_unit: str
     output_unit: str
 
 
 def _model_choices() -> dict[str, _ModelChoice]:
-    import jaxhyst as jh
-
-    def paper() -> jh.PiezoBoucWen:
-        return jh.PiezoBoucWen.paper_table4(3)
+    def paper() -> PiezoBoucWen:
+        return PiezoBoucWen.paper_table4(3)
 
     return {
         "piezo": _ModelChoice(
@@ -88,21 +114,19 @@ def _model_choices() -> dict[str, _ModelChoice]:
         "corrected": _ModelChoice(
             "CorrectedPiezoBoucWen, Table 4 case 3 with phi=0.05 s, eps=1e-6 "
             "(eq. 16-17)",
-            lambda: jh.CorrectedPiezoBoucWen.from_piezo(paper(), phi=0.05, eps=1e-6),
+            lambda: CorrectedPiezoBoucWen.from_piezo(paper(), phi=0.05, eps=1e-6),
             "V",
             "m",
         ),
         "bouc-wen": _ModelChoice(
             "BoucWen (eq. 1-2), k=1, alpha=0.5, D=1, A=1, beta=0.6, gamma=0.4, n=1",
-            lambda: jh.BoucWen(
-                k=1.0, alpha=0.5, D=1.0, A=1.0, beta=0.6, gamma=0.4, n=1.0
-            ),
+            lambda: BoucWen(k=1.0, alpha=0.5, D=1.0, A=1.0, beta=0.6, gamma=0.4, n=1.0),
             "",
             "",
         ),
         "stage": _ModelChoice(
             "PiezoStage (eq. 3-4), Table 4 case 3 with a 50 Hz, 0.1-damped stage",
-            lambda: jh.PiezoStage.from_piezo(
+            lambda: PiezoStage.from_piezo(
                 paper(), natural_frequency=50.0, damping_ratio=0.1
             ),
             "V",
@@ -111,7 +135,6 @@ def _model_choices() -> dict[str, _ModelChoice]:
     }
 
 
-_MODELS = ("piezo", "corrected", "bouc-wen", "stage")
 _SIGNALS = {
     "u1": "the paper's u1 = 2 - 2 cos(0.2 pi t), 0 to 4, 10 s per period",
     "u2": "the paper's u2 = 4 - 4 cos(0.2 pi t), 0 to 8, 10 s per period",
@@ -121,19 +144,14 @@ _SIGNALS = {
 }
 
 
-def _build_signal(name: str, periods: float, seed: int):
-    import jax
-    import numpy as np
-
-    import jaxhyst as jh
-
+def _build_signal(name: str, periods: float, seed: int) -> AbstractSignal:
     duration = 10.0 * periods
     if name == "u1":
-        return jh.paper_u1(periods=periods)
+        return paper_u1(periods=periods)
     if name == "u2":
-        return jh.paper_u2(periods=periods)
+        return paper_u2(periods=periods)
     if name == "multisine":
-        return jh.Multisine.random_phase(
+        return Multisine.random_phase(
             jax.random.key(seed),
             np.array([0.1, 0.3, 0.7, 1.3]),
             rms=0.6,
@@ -141,9 +159,9 @@ def _build_signal(name: str, periods: float, seed: int):
             offset=2.0,
         )
     if name == "chirp":
-        return jh.Chirp(0.1, 2.0, 2.0, duration=duration)
+        return Chirp(0.1, 2.0, 2.0, duration=duration)
     if name == "triangle":
-        return jh.Triangle(2.0, 0.1, duration=duration)
+        return Triangle(2.0, 0.1, duration=duration)
     raise ValueError(f"unknown signal {name!r}; choose from {', '.join(_SIGNALS)}.")
 
 
@@ -192,7 +210,8 @@ def _positive_int(text: str) -> int:
 
 
 def _add_simulate_parser(subparsers) -> None:
-    models = "; ".join(f"{k}: {v.description}" for k, v in _model_choices().items())
+    choices = _model_choices()
+    models = "; ".join(f"{k}: {v.description}" for k, v in choices.items())
     signals = "; ".join(f"{k}: {v}" for k, v in _SIGNALS.items())
     parser = subparsers.add_parser(
         "simulate",
@@ -205,7 +224,10 @@ def _add_simulate_parser(subparsers) -> None:
         ),
     )
     parser.add_argument(
-        "--model", choices=_MODELS, default="piezo", help=f"the model ({models})."
+        "--model",
+        choices=tuple(choices),
+        default="piezo",
+        help=f"the model ({models}).",
     )
     parser.add_argument(
         "--param",
@@ -259,12 +281,6 @@ def _add_simulate_parser(subparsers) -> None:
 
 
 def _run_simulate(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    import jaxhyst as jh
-
-    from ._plots import plot_loop, require_matplotlib
-
     choice = _model_choices()[args.model]
     model = choice.build()
     overrides = _parse_params(args.param, model.parameter_names, args.model)
@@ -276,22 +292,20 @@ def _run_simulate(args: argparse.Namespace) -> int:
     )
     require_matplotlib()
 
-    stability = jh.bibo_stability(model)
+    stability = bibo_stability(model)
     if not stability:
         _warn(
             f"parameters outside the BIBO-stable classes of Table 2 "
             f"({stability.reason}); the output may diverge."
         )
-    path = jh.sample(signal, args.rate)
-    y = np.asarray(
-        jh.simulate(model, path, jh.RK4(substeps=args.substeps), throw=False)
-    )
+    path = sample_signal(signal, args.rate)
+    y = np.asarray(simulate(model, path, RK4(substeps=args.substeps), throw=False))
     if not np.all(np.isfinite(y)):
         raise ValueError(
             "the simulation diverged (non-finite output); check the --param values "
             "against the stability classes, or raise --rate or --substeps."
         )
-    recording = jh.Recording(
+    recording = Recording(
         np.asarray(path.times),
         np.asarray(path.values),
         y,
@@ -302,10 +316,7 @@ def _run_simulate(args: argparse.Namespace) -> int:
 
     Path(args.out).mkdir(parents=True, exist_ok=True)
     recording.save(csv_path, overwrite=args.force)
-    if choice.output_unit == "m":
-        scale, y_unit = 1e6, "µm"
-    else:
-        scale, y_unit = 1.0, choice.output_unit
+    scale, y_unit = _display_unit(choice.output_unit)
     plot_loop(
         png_path,
         recording.u,
@@ -320,7 +331,8 @@ def _run_simulate(args: argparse.Namespace) -> int:
 
     parameters = ", ".join(f"{k}={float(v):.6g}" for k, v in model.parameters().items())
     unit = f" {y_unit}" if y_unit else ""
-    print(f"model: {choice.description}")
+    changed = f"; overridden: {', '.join(overrides)}" if overrides else ""
+    print(f"model: {choice.description}{changed}")
     print(f"parameters: {parameters}")
     print(
         f"signal: {args.signal}, {recording.num_samples} samples at {args.rate:g} Hz "
@@ -338,7 +350,7 @@ def _run_simulate(args: argparse.Namespace) -> int:
 
 
 def _build_parser() -> _Parser:
-    import jaxhyst
+    from . import __version__
 
     parser = _Parser(
         prog=_PROG,
@@ -348,7 +360,7 @@ def _build_parser() -> _Parser:
         ),
     )
     parser.add_argument(
-        "--version", action="version", version=f"%(prog)s {jaxhyst.__version__}"
+        "--version", action="version", version=f"%(prog)s {__version__}"
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     _add_simulate_parser(subparsers)
@@ -358,11 +370,7 @@ def _build_parser() -> _Parser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line with `argv` (default: `sys.argv[1:]`); returns the exit
     status: 0 on success, 2 on a user error (reported as one line on stderr)."""
-    import jax
-
     jax.config.update("jax_enable_x64", True)
-    from ._recording import RecordingError
-
     parser = _build_parser()
     try:
         args = parser.parse_args(argv)

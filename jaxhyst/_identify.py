@@ -35,20 +35,24 @@ class Problem(eqx.Module):
     inputs: InputPath
     measured: Float[Array, " n"]
     solver: AbstractSimulationSolver
+    weights: Float[Array, " n"] | None = None
     stable_only: bool = eqx.field(static=True, default=False)
 
     def residuals(self, z: Float[Array, " d"]) -> Float[Array, " n"]:
-        """Simulated minus measured output, divided by the output scale."""
+        """Simulated minus measured output, divided by the output scale (and multiplied
+        by the weights, e.g. a 0/1 mask that holds data out of the fit)."""
         model = self.space.to_model(z)
         predicted = simulate(model, self.inputs, self.solver, throw=False)
         scale = jnp.max(jnp.abs(self.measured))
-        return (predicted - self.measured) / scale
+        r = (predicted - self.measured) / scale
+        return r if self.weights is None else r * self.weights
 
     def rmse(self, z: Float[Array, " d"]) -> Float[Array, ""]:
         """Root-mean-square error in output units, eq. 12 (+inf for unstable sets when
-        `stable_only`)."""
+        `stable_only`), over the weighted samples."""
         r = self.residuals(z)
-        value = jnp.sqrt(jnp.mean(r**2)) * jnp.max(jnp.abs(self.measured))
+        count = r.size if self.weights is None else jnp.sum(self.weights**2)
+        value = jnp.sqrt(jnp.sum(r**2) / count) * jnp.max(jnp.abs(self.measured))
         if self.stable_only:
             model = self.space.to_model(z)
             params = model.parameters()
@@ -358,19 +362,20 @@ class Fit(eqx.Module):
         return out
 
 
-def swarm_floor(measured: Array) -> Array:
-    return jnp.max(jnp.abs(measured))
-
-
-def _decimate(inputs: InputPath, measured: Array, stride: int):
-    return (
-        InputPath(
-            inputs.t0,
-            inputs.dt * stride,
-            inputs.values[::stride],
-            interpolation=inputs.interpolation,
-        ),
-        measured[::stride],
+def _decimate(problem: Problem, stride: int) -> Problem:
+    inputs = problem.inputs
+    coarse = InputPath(
+        inputs.t0,
+        inputs.dt * stride,
+        inputs.values[::stride],
+        interpolation=inputs.interpolation,
+    )
+    weights = None if problem.weights is None else problem.weights[::stride]
+    return eqx.tree_at(
+        lambda p: (p.inputs, p.measured, p.weights),
+        problem,
+        (coarse, problem.measured[::stride], weights),
+        is_leaf=lambda x: x is None,
     )
 
 
@@ -387,6 +392,7 @@ def identify(
     stall_iterations: int | None = 40,
     start: AbstractHysteresisModel | None = None,
     stable_only: bool = False,
+    weights: Float[Array, " n"] | None = None,
     gauge: bool = True,
     analyse: bool = True,
     progress: bool = False,
@@ -406,6 +412,8 @@ def identify(
     - `stall_iterations`: stop the swarm when its best has not improved by 1e-4 of the
       output scale for this many iterations (None runs all iterations, as the paper).
     - `stable_only`: give +inf fitness to parameter sets outside Table 2.
+    - `weights`: per-sample weights of the loss (a 0/1 mask fits part of the record
+      while the model still runs through all of it); metrics are over all samples.
     """
     if not isinstance(recording, Recording):
         raise TypeError(
@@ -427,14 +435,20 @@ def identify(
             sample_rate=recording.sample_rate,
             gauge=gauge,
         )
-    problem = Problem(space, inputs, measured, solver, stable_only)
+    if weights is not None:
+        weights = jnp.asarray(weights, measured.dtype)
+        if weights.shape != measured.shape:
+            raise ValueError(
+                f"identify: weights must have one value per sample {measured.shape}, "
+                f"got {weights.shape}."
+            )
+    problem = Problem(space, inputs, measured, solver, weights, stable_only)
     timing: dict[str, float] = {}
     swarm_result = None
     seeds = []
     if swarm is not None:
         stride = swarm_stride or max(1, recording.num_samples // 2000)
-        coarse_inputs, coarse_measured = _decimate(inputs, measured, stride)
-        coarse = Problem(space, coarse_inputs, coarse_measured, solver, stable_only)
+        coarse = _decimate(problem, stride)
         swarm_result = run_swarm(
             _swarm_objective,
             jnp.zeros(space.dimension),
@@ -445,7 +459,7 @@ def identify(
             progress=progress,
             chunk_size=20,
             stall_iterations=stall_iterations,
-            stall_tolerance=1e-4 * float(swarm_floor(coarse_measured)),
+            stall_tolerance=1e-4 * float(jnp.max(jnp.abs(measured))),
         )
         timing["swarm_s"] = swarm_result.wall_seconds
         seeds.append(swarm_result.best_x)

@@ -1,0 +1,336 @@
+"""End-to-end identification speed: a fresh Python process, from its start to a
+finished `jh.identify` on a paper-like recording, against the paper's MPSO schedule.
+
+The recording: the paper's model (`PiezoBoucWen.paper_table4(3)`) driven by u1 = 2 -
+2 cos(0.2 pi t), sampled at 1 kHz for one period (N = 10001), plus Gaussian noise of
+standard deviation 0.1 % of max|y| (fixed seed).
+
+1. "jaxhyst identify": `jh.identify(template, recording, key=...)` with its defaults
+   (MPSO 100 particles x up to 200 iterations with stall stopping on a decimated copy,
+   Levenberg-Marquardt polish on all samples, identifiability analysis), run in a
+   child process started with `subprocess.run([sys.executable, __file__, "--child",
+   "fit"])`. The wall time is measured by the parent from just before it starts the
+   child to the moment the child's `identify` returns, so it includes interpreter
+   start, imports, making the recording, tracing/compilation and the fit itself.
+2. "paper MPSO (extrapolated)": `MPSO.paper_case(3)` (300 particles, G = 5000) at full
+   resolution (`swarm_stride=1`), `polish=None`, no stall stopping. It is far too slow
+   to run in full here, so a fresh child runs `--paper-iterations` of its iterations
+   (a multiple of identify's 20-iteration chunk, so no iteration is computed beyond
+   the count), twice: the first call gives the compile time, the second the steady
+   seconds per iteration, from which the full schedule (G iterations plus the initial
+   evaluation) is EXTRAPOLATED.
+
+Neither child sets XLA_FLAGS (one CPU device; XLA multithreads within it) unless
+`--host-devices K` is given.
+
+Run `python benchmarks/fit_speed.py`; `--json PATH` saves the results.
+"""
+
+import time
+
+
+T0_PERF = time.perf_counter()  # as early as possible: imports count in the child
+
+import argparse  # noqa: E402
+import importlib.metadata  # noqa: E402
+import json  # noqa: E402
+import os  # noqa: E402
+import platform  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+
+
+RESULT_PREFIX = "FIT_SPEED_RESULT "
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seed", type=int, default=0, help="noise and swarm seed")
+    parser.add_argument(
+        "--noise", type=float, default=1e-3, help="noise sigma / max|y| (0.1 %%)"
+    )
+    parser.add_argument("--rate", type=float, default=1000.0, help="sample rate, Hz")
+    parser.add_argument(
+        "--paper-iterations",
+        type=int,
+        default=60,
+        help="iterations of MPSO.paper_case(3) actually run (then extrapolated)",
+    )
+    parser.add_argument("--paper-case", type=int, default=3, choices=[1, 2, 3, 4])
+    parser.add_argument(
+        "--skip-paper", action="store_true", help="only the end-to-end fit"
+    )
+    parser.add_argument(
+        "--host-devices",
+        type=int,
+        default=None,
+        help="set XLA_FLAGS=--xla_force_host_platform_device_count=K in the children",
+    )
+    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
+    parser.add_argument("--child", choices=["fit", "paper"], help=argparse.SUPPRESS)
+    return parser.parse_args(argv)
+
+
+def log(message):
+    print(message, file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------------------ child
+
+
+def make_recording(jh, np, args):
+    model = jh.PiezoBoucWen.paper_table4(3)
+    path = jh.sample(jh.paper_u1(), args.rate)
+    clean = np.asarray(jh.simulate(model, path, jh.RK4()))
+    sigma = args.noise * float(np.max(np.abs(clean)))
+    noisy = clean + sigma * np.random.default_rng(args.seed).standard_normal(
+        clean.shape
+    )
+    t = np.arange(path.num_samples) / args.rate
+    recording = jh.Recording(t, np.asarray(path.values), noisy, name="paper-u1-1kHz")
+    return model, recording, clean, sigma
+
+
+def child_fit(args):
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import numpy as np
+
+    import jaxhyst as jh
+
+    t_imported = time.perf_counter()
+    template, recording, clean, sigma = make_recording(jh, np, args)
+    t_data = time.perf_counter()
+    fit = jh.identify(template, recording, key=jax.random.key(args.seed))
+    done_epoch = time.time()
+    t_done = time.perf_counter()
+    predicted = np.asarray(fit.predicted)
+    rmse = float(fit.metrics["rmse"])
+    return {
+        "done_epoch": done_epoch,
+        "child_total_s": t_done - T0_PERF,
+        "import_s": t_imported - T0_PERF,
+        "data_s": t_data - t_imported,
+        "identify_s": t_done - t_data,
+        "timing": {k: float(v) for k, v in fit.timing.items()},
+        "swarm_compile_s": float(fit.swarm.compile_seconds) if fit.swarm else None,
+        "swarm_iterations": fit.swarm.iterations_run if fit.swarm else None,
+        "swarm_evaluations": fit.swarm.evaluations if fit.swarm else None,
+        "swarm_stop": fit.swarm.stop_reason if fit.swarm else None,
+        "polish_steps": fit.polish.steps if fit.polish else None,
+        "num_samples": int(recording.num_samples),
+        "sigma": sigma,
+        "rmse": rmse,
+        "rmse_over_sigma": rmse / sigma,
+        "rmse_vs_clean_over_sigma": float(
+            np.sqrt(np.mean((predicted - clean) ** 2)) / sigma
+        ),
+        "parameters": {k: float(v) for k, v in fit.model.parameters().items()},
+        "devices": [str(d) for d in jax.devices()],
+    }
+
+
+def child_paper(args):
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import numpy as np
+
+    import jaxhyst as jh
+
+    template, recording, _, sigma = make_recording(jh, np, args)
+    full = jh.MPSO.paper_case(args.paper_case)
+    swarm = jh.MPSO.paper_case(args.paper_case, num_iterations=args.paper_iterations)
+
+    def run(seed):
+        return jh.identify(
+            template,
+            recording,
+            key=jax.random.key(seed),
+            swarm=swarm,
+            swarm_stride=1,
+            polish=None,
+            stall_iterations=None,
+            analyse=False,
+        )
+
+    first = run(args.seed)
+    steady = [run(args.seed + 1 + i) for i in range(2)]
+    walls = [fit.swarm.wall_seconds for fit in steady]
+    evaluations_per_iteration = swarm.num_particles
+    passes = steady[0].swarm.evaluations / evaluations_per_iteration  # G + 1
+    s_per_iteration = min(walls) / passes
+    compile_s = float(first.swarm.compile_seconds)
+    return {
+        "case": args.paper_case,
+        "num_particles": full.num_particles,
+        "full_iterations": full.num_iterations,
+        "iterations_run": steady[0].swarm.iterations_run,
+        "num_samples": int(recording.num_samples),
+        "first_swarm_s": float(first.swarm.wall_seconds),
+        "compile_s": compile_s,
+        "steady_swarm_s": walls,
+        "s_per_iteration": s_per_iteration,
+        "particle_steps_per_s": evaluations_per_iteration
+        * (recording.num_samples - 1)
+        / s_per_iteration,
+        "extrapolated_full_s": compile_s + (full.num_iterations + 1) * s_per_iteration,
+        "rmse_after_run_over_sigma": float(steady[0].metrics["rmse"]) / sigma,
+        "devices": [str(d) for d in jax.devices()],
+    }
+
+
+# ----------------------------------------------------------------------------- parent
+
+
+def run_child(args, kind):
+    cmd = [sys.executable, os.path.abspath(__file__), "--child", kind]
+    cmd += ["--seed", str(args.seed), "--noise", str(args.noise)]
+    cmd += ["--rate", str(args.rate), "--paper-case", str(args.paper_case)]
+    cmd += ["--paper-iterations", str(args.paper_iterations)]
+    env = dict(os.environ)
+    env.pop("XLA_FLAGS", None)
+    if args.host_devices:
+        env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.host_devices}"
+    start_epoch = time.time()
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, text=True)
+    process_s = time.perf_counter() - start
+    if proc.returncode != 0:
+        raise SystemExit(f"child {kind!r} failed with exit status {proc.returncode}")
+    line = [ln for ln in proc.stdout.splitlines() if ln.startswith(RESULT_PREFIX)][-1]
+    result = json.loads(line[len(RESULT_PREFIX) :])
+    result["process_s"] = process_s
+    if "done_epoch" in result:
+        result["start_to_done_s"] = result["done_epoch"] - start_epoch
+    return result
+
+
+def versions():
+    out = {}
+    for name in ("jaxhyst", "jax", "jaxlib", "numpy", "equinox", "optimistix"):
+        try:
+            out[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def cpu_model():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    if args.child is not None:
+        result = child_fit(args) if args.child == "fit" else child_paper(args)
+        print(RESULT_PREFIX + json.dumps(result), flush=True)
+        return 0
+
+    machine = {
+        "cpu_count": os.cpu_count(),
+        "cpu_model": cpu_model(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "load_average_before": os.getloadavg(),
+        "versions": versions(),
+        "xla_flags": (
+            f"--xla_force_host_platform_device_count={args.host_devices}"
+            if args.host_devices
+            else ""
+        ),
+    }
+    log("fit: fresh process -> jh.identify ...")
+    fit = run_child(args, "fit")
+    paper = None
+    if not args.skip_paper:
+        log(
+            f"paper: MPSO.paper_case({args.paper_case}) for {args.paper_iterations} "
+            "iterations ..."
+        )
+        paper = run_child(args, "paper")
+    machine["load_average_after"] = os.getloadavg()
+
+    m = machine
+    print(
+        f"machine: {m['cpu_count']} CPUs ({m['cpu_model']}), {m['platform']}, Python "
+        f"{m['python']}; load average before {m['load_average_before'][0]:.2f}, after "
+        f"{m['load_average_after'][0]:.2f}"
+    )
+    print("versions: " + ", ".join(f"{k} {v}" for k, v in m["versions"].items()))
+    print(f"devices: {fit['devices']}  XLA_FLAGS={m['xla_flags']!r}")
+    print(
+        f"recording: PiezoBoucWen.paper_table4(3) under u1 at {args.rate:g} Hz, N = "
+        f"{fit['num_samples']}, noise sigma = {args.noise:g} * max|y| = "
+        f"{fit['sigma']:.4g}, seed {args.seed}"
+    )
+    print()
+    t = fit["timing"]
+    print("jaxhyst identify (defaults), fresh process:")
+    print(
+        f"  process start -> identify done  {fit['start_to_done_s']:7.2f} s   "
+        f"(whole child process incl. exit {fit['process_s']:.2f} s)"
+    )
+    print(
+        f"    imports {fit['import_s']:.2f} s, recording {fit['data_s']:.2f} s, "
+        f"identify {fit['identify_s']:.2f} s = swarm {t.get('swarm_s', 0):.2f} s "
+        f"(compile {fit['swarm_compile_s']:.2f} s, {fit['swarm_iterations']} "
+        f"iterations, stop: {fit['swarm_stop']}) + polish {t.get('polish_s', 0):.2f} "
+        f"s ({fit['polish_steps']} steps) + identifiability "
+        f"{t.get('identifiability_s', 0):.2f} s + rest"
+    )
+    print(
+        f"  final RMSE / sigma = {fit['rmse_over_sigma']:.4f}   (RMSE vs the clean "
+        f"truth / sigma = {fit['rmse_vs_clean_over_sigma']:.4f})"
+    )
+    if paper is not None:
+        print()
+        print(
+            f"paper MPSO.paper_case({paper['case']}): {paper['num_particles']} "
+            f"particles x {paper['full_iterations']} iterations at N = "
+            f"{paper['num_samples']}, polish=None:"
+        )
+        print(
+            f"  ran {paper['iterations_run']} iterations: first call "
+            f"{paper['first_swarm_s']:.2f} s (compile {paper['compile_s']:.2f} s), "
+            f"steady {', '.join(f'{w:.2f}' for w in paper['steady_swarm_s'])} s -> "
+            f"{paper['s_per_iteration']:.4f} s/iteration "
+            f"({paper['particle_steps_per_s'] / 1e6:.1f} M particle-steps/s)"
+        )
+        print(
+            f"  EXTRAPOLATED full schedule: {paper['extrapolated_full_s']:.0f} s "
+            f"({paper['extrapolated_full_s'] / 60:.1f} min) = compile + "
+            f"{paper['full_iterations'] + 1} x s/iteration"
+        )
+        print(
+            f"  jaxhyst identify end-to-end is "
+            f"{paper['extrapolated_full_s'] / fit['start_to_done_s']:.0f}x faster "
+            "than the extrapolated paper schedule"
+        )
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(
+                {
+                    "machine": machine,
+                    "settings": vars(args),
+                    "fit": fit,
+                    "paper": paper,
+                    "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
+                },
+                f,
+                indent=1,
+            )
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,620 @@
+"""The diagnosis loop: fit the base model, score every catalogue effect on the
+residual, refit the strongest candidates, keep an effect only if it earns its
+parameters on held-out data, and repeat until nothing significant is left."""
+
+import math
+import time
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import PRNGKeyArray
+from scipy import stats
+
+from .._identify import Fit, LevenbergMarquardtPolish, Problem, identify
+from .._metrics import error_metrics
+from .._models.base import AbstractHysteresisModel
+from .._models.bouc_wen import PiezoBoucWen
+from .._models.extended import ExtendedPiezo
+from .._params import ParameterSpace
+from .._recording import Recording
+from .._simulate import RK4, simulate
+from .._swarm import MPSO
+from ._catalogue import CATALOGUE, EFFECT_NAMES
+from ._locate import describe, effective_samples, locate
+
+
+BASE_FREE = ("k1", "k2", "beta1", "gamma1", "n")  # A1 fixes the gauge
+
+
+class Finding(eqx.Module):
+    """One adopted effect, with the evidence for it and what it bought."""
+
+    effect: str
+    evidence: str
+    where: str
+    score: float
+    parameters: dict[str, float]
+    before: dict[str, float]
+    after: dict[str, float]
+    validation: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "effect": self.effect,
+            "evidence": self.evidence,
+            "where": self.where,
+            "score": self.score,
+            "parameters": self.parameters,
+            "before": self.before,
+            "after": self.after,
+            "validation": self.validation,
+        }
+
+
+class Diagnosis(eqx.Module):
+    """The result of `diagnose`; `to_dict()` is the `jaxhyst diagnose` JSON."""
+
+    recording: str
+    samples: int
+    base_model: AbstractHysteresisModel
+    final_model: AbstractHysteresisModel
+    baseline: dict[str, float]
+    final: dict[str, float]
+    findings: list[Finding]
+    candidates: list[list[dict[str, Any]]]
+    ambiguities: list[str]
+    noise_sigma: float
+    noise: dict[str, float]
+    location: dict[str, Any]
+    base_predicted: np.ndarray
+    final_predicted: np.ndarray
+    holdout_fraction: float
+    seconds: float
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        return tuple(f.effect for f in self.findings)
+
+    @property
+    def final_rmse(self) -> float:
+        return self.final["rmse"]
+
+    def to_dict(self) -> dict[str, Any]:
+        adopted = "+".join(self.effects)
+        return {
+            "recording": self.recording,
+            "samples": self.samples,
+            "model": "piezo",
+            "noise": self.noise,
+            "baseline": self.baseline,
+            "findings": [f.to_dict() for f in self.findings],
+            "final": {
+                "model": "piezo" + (f"+{adopted}" if adopted else ""),
+                "rmse": self.final["rmse"],
+                "metrics": self.final,
+                "parameters": _active_parameters(self.final_model, self.effects),
+            },
+            "ambiguities": self.ambiguities,
+            "location": self.location,
+            "candidates": self.candidates,
+            "holdout_fraction": self.holdout_fraction,
+            "timing": {"total_s": self.seconds},
+        }
+
+
+def _active_parameters(model, effects) -> dict[str, float]:
+    names = list(PiezoBoucWen.parameter_names)
+    for effect in effects:
+        names += list(CATALOGUE[effect].parameters)
+    return {n: float(getattr(model, n)) for n in names}
+
+
+# ----------------------------------------------------------------- linear algebra
+
+
+def _jacobian(model, names, inputs, solver) -> np.ndarray:
+    values = jnp.stack([jnp.asarray(getattr(model, n), float) for n in names])
+
+    @jax.jit
+    def outputs(v):
+        new = eqx.tree_at(
+            lambda m: [getattr(m, n) for n in names],
+            model,
+            [v[i] for i in range(len(names))],
+        )
+        return simulate(new, inputs, solver, throw=False)
+
+    return np.nan_to_num(np.asarray(jax.jacfwd(outputs)(values)))
+
+
+def _dynamics_directions(predicted: np.ndarray, dt: float) -> np.ndarray:
+    """First-order effect of a fast stage on the output: y ~ y_s - a1*y_s' - a2*y_s''
+    with a1 = 2*zeta/omega and a2 = 1/omega^2."""
+    first = np.gradient(predicted, dt)
+    second = np.gradient(first, dt)
+    return -np.stack([first, second], axis=1)
+
+
+def _project_off(base: np.ndarray, extra: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The part of `extra`'s columns that the base parameters cannot absorb."""
+    bw = base * w[:, None]
+    ew = extra * w[:, None]
+    coef, *_ = np.linalg.lstsq(bw, ew, rcond=None)
+    return ew - bw @ coef
+
+
+def _whitening_filter(noise: np.ndarray, order: int = 2) -> np.ndarray:
+    """AR(order) coefficients of `noise` (least squares), used to pre-whiten the
+    score test so that coloured sensor noise does not pass for physics."""
+    x = noise - noise.mean()
+    lagged = np.stack([x[order - k - 1 : x.size - k - 1] for k in range(order)], axis=1)
+    coef, *_ = np.linalg.lstsq(lagged, x[order:], rcond=None)
+    return coef
+
+
+def _whiten(x: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    out = np.array(x, dtype=float, copy=True)
+    for k, a in enumerate(coef, start=1):
+        out[k:] -= a * x[:-k]
+    return out
+
+
+def _score(directions: np.ndarray, residual: np.ndarray, coef: np.ndarray, sigma2):
+    """Lagrange-multiplier statistic of the pre-whitened residual along the
+    pre-whitened directions: s^T (D^T D)^-1 s / sigma^2, ~ chi^2(dof) under no effect."""
+    d = _whiten(directions, coef)
+    r = _whiten(residual, coef)
+    s = d.T @ r
+    try:
+        stat = float(s @ np.linalg.solve(d.T @ d, s)) / sigma2
+    except np.linalg.LinAlgError:
+        stat = 0.0
+    return max(stat, 0.0)
+
+
+def _max_canonical_correlation(a: np.ndarray, b: np.ndarray) -> float:
+    qa, _ = np.linalg.qr(a)
+    qb, _ = np.linalg.qr(b)
+    return float(np.linalg.svd(qa.T @ qb, compute_uv=False).max(initial=0.0))
+
+
+# ------------------------------------------------------------------------- refits
+
+
+def _bounds_around(model, names, natural_scales, fs, duration):
+    bounds = {}
+    for name in names:
+        value = float(getattr(model, name))
+        if name == "n":
+            bounds[name] = (1.0, 4.0)
+        elif name == "natural_frequency":
+            bounds[name] = (2.0 / duration, 0.5 * fs)
+        elif name == "damping_ratio":
+            bounds[name] = (5e-3, 5.0)
+        elif name in natural_scales:
+            scale = natural_scales[name]
+            bounds[name] = (value - scale, value + scale)
+        else:
+            spread = 2 * abs(value) + 1e-12
+            bounds[name] = (value - spread, value + spread)
+    log = [n for n in ("natural_frequency", "damping_ratio") if n in names]
+    return bounds, log
+
+
+def _solver_for(model: ExtendedPiezo, dt: float) -> RK4:
+    if not model.dynamic:
+        return RK4()
+    omega_dt = 2 * math.pi * float(model.natural_frequency) * dt
+    return RK4(substeps=int(min(16, max(1, math.ceil(omega_dt / 0.3)))))
+
+
+def _damped_start(current, step, inputs, y, mask):
+    """The Gauss-Newton step of the score test, halved until it helps (a large
+    linearised step can leave the stable region)."""
+    base = float(
+        np.mean((y - np.asarray(simulate(current, inputs, throw=False)))[mask] ** 2)
+    )
+    for scale in (1.0, 0.5, 0.25, 0.125):
+        trial = current.replace(
+            **{p: float(getattr(current, p)) + scale * v for p, v in step.items()}
+        )
+        pred = np.asarray(simulate(trial, inputs, throw=False))
+        if np.all(np.isfinite(pred)) and np.mean((y - pred)[mask] ** 2) < base:
+            return trial
+    return current
+
+
+def _refit(
+    model, names, inputs, measured, weights, natural_scales, fs, duration, max_steps=60
+):
+    bounds, log = _bounds_around(model, names, natural_scales, fs, duration)
+    space = ParameterSpace(model, bounds, log_scale=log)
+    solver = _solver_for(model, float(inputs.dt))
+    problem = Problem(space, inputs, measured, solver, weights)
+    result = LevenbergMarquardtPolish(max_steps=max_steps).run(
+        problem, space.from_model(model)
+    )
+    return space.to_model(result.z)
+
+
+def _holdout_blocks(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
+    """Fit mask that holds out evenly spread blocks (about `fraction` of the samples),
+    so that slow effects are judged by interpolation, not extrapolation."""
+    held = max(1, round(fraction * blocks))
+    chosen = np.round(np.linspace(1, blocks - 1, held)).astype(int)
+    edges = np.linspace(0, n, blocks + 1).astype(int)
+    mask = np.ones(n, bool)
+    for b in chosen:
+        mask[edges[b] : edges[b + 1]] = False
+    return mask
+
+
+def _noise_ratio(noise: np.ndarray, coef: np.ndarray, innovation_var: float) -> float:
+    """N_eff / N for noise following the AR model: variance over long-run variance."""
+    long_run = innovation_var / max(1e-12, (1 - float(np.sum(coef)))) ** 2
+    return float(min(1.0, max(1e-4, np.var(noise) / long_run)))
+
+
+def _mse(residual, mask):
+    return float(np.mean(residual[mask] ** 2))
+
+
+# ---------------------------------------------------------------------- diagnose
+
+
+def diagnose(
+    recording: Recording,
+    *,
+    key: PRNGKeyArray,
+    base: AbstractHysteresisModel | None = None,
+    holdout_fraction: float = 0.3,
+    max_effects: int = 3,
+    significance: float = 1e-6,
+    swarm: MPSO | None = MPSO(num_particles=100, num_iterations=200),
+    progress: bool = False,
+) -> Diagnosis:
+    """Find the physics a quasi-static piezo model leaves out of `recording`.
+
+    The base model (`PiezoBoucWen`) is fitted on the first `1 - holdout_fraction` of
+    the record (or taken from `base`). Each catalogue effect is scored by a
+    Lagrange-multiplier test: the residual's projection on the effect's parameter
+    gradients at zero, after removing what the base parameters can absorb, with a
+    long-run (Newey-West) variance so that coloured noise does not pass for physics.
+    The strongest candidates are refitted (warm start + Levenberg-Marquardt); one is
+    adopted only if it lowers the error on the held-out tail by more than its noise
+    and lowers an information criterion on the fitted part. Repeats until nothing
+    significant is left or `max_effects` are adopted.
+
+    Lower `significance` to be stricter; raise `holdout_fraction` on long records.
+    """
+    if not isinstance(recording, Recording):
+        raise TypeError(
+            f"diagnose: recording must be a Recording, got {type(recording).__name__}."
+        )
+    if not 0.05 <= holdout_fraction <= 0.5:
+        raise ValueError(
+            f"diagnose: holdout_fraction={holdout_fraction} must be in [0.05, 0.5]."
+        )
+    recording.require_samples(200, what="the diagnosis")
+    start_time = time.perf_counter()
+    inputs = recording.input_path()
+    measured = jnp.asarray(recording.y)
+    y = np.asarray(recording.y)
+    t = np.asarray(recording.t)
+    n = y.size
+    fit_mask = _holdout_blocks(n, holdout_fraction)
+    hold_mask = ~fit_mask
+    weights = jnp.asarray(fit_mask, measured.dtype)
+    fs = recording.sample_rate
+    duration = recording.duration
+
+    if base is None:
+        base_fit: Fit = identify(
+            PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
+            recording,
+            key=key,
+            swarm=swarm,
+            weights=weights,
+            analyse=False,
+            progress=progress,
+        )
+        base = base_fit.model
+    current = ExtendedPiezo.around(base, inputs)
+    predicted = np.asarray(simulate(current, inputs, throw=False))
+    base_predicted = predicted
+    baseline = error_metrics(y, predicted)
+    location = locate(t, np.asarray(recording.u), y - predicted)
+    free = list(BASE_FREE)
+    findings: list[Finding] = []
+    ambiguities: list[str] = []
+    rounds: list[list[dict[str, Any]]] = []
+    threshold_cache: dict[int, float] = {}
+
+    for _ in range(max_effects):
+        residual = y - predicted
+        solver = _solver_for(current, float(inputs.dt))
+        remaining = [e for e in EFFECT_NAMES if e not in {f.effect for f in findings}]
+        static_names = [
+            p for e in remaining if e != "dynamics" for p in CATALOGUE[e].parameters
+        ]
+        jac = _jacobian(current, free + static_names, inputs, solver)
+        base_cols = jac[:, : len(free)]
+        extra = {name: jac[:, len(free) + i] for i, name in enumerate(static_names)}
+        w = fit_mask.astype(float)
+        projected = {}
+        for effect in remaining:
+            params = CATALOGUE[effect].parameters
+            if effect == "dynamics":
+                cols = _dynamics_directions(predicted, float(inputs.dt))
+            else:
+                cols = np.stack([extra[p] for p in params], axis=1)
+            projected[effect] = (cols, _project_off(base_cols, cols, w))
+        # The noise's colour, read from what no candidate explains.
+        everything = np.concatenate([p for _, p in projected.values()], axis=1)
+        coef, *_ = np.linalg.lstsq(everything, residual * w, rcond=None)
+        unexplained = (residual * w - everything @ coef)[fit_mask]
+        ar = _whitening_filter(unexplained)
+        sigma2 = float(np.var(_whiten(unexplained, ar)[len(ar) :]))
+        noise_sd = float(np.std(unexplained))
+        neff_ratio = _noise_ratio(unexplained, ar, sigma2)
+        scored = []
+        for effect in remaining:
+            params = CATALOGUE[effect].parameters
+            cols, perp = projected[effect]
+            norms = np.linalg.norm(perp, axis=0)
+            usable = norms > 1e-9 * (np.linalg.norm(cols, axis=0) + 1e-300)
+            if not usable.any():
+                continue
+            perp = perp[:, usable]
+            stat = _score(perp, residual * w, ar, sigma2)
+            dof = perp.shape[1]
+            if dof not in threshold_cache:
+                threshold_cache[dof] = float(stats.chi2.isf(significance, dof))
+            log10_p = float(stats.chi2.logsf(stat, dof) / np.log(10))
+            step, *_ = np.linalg.lstsq(perp, residual * w, rcond=None)
+            explained = float(np.sum((perp @ step) ** 2) / max(1, w.sum()))
+            scored.append(
+                {
+                    "effect": effect,
+                    "statistic": stat,
+                    "dof": dof,
+                    "log10_p": log10_p,
+                    "explained_mse": explained,
+                    "significant": stat > threshold_cache[dof],
+                    "step": dict(zip([p for p, ok in zip(params, usable) if ok], step)),
+                    "directions": perp,
+                }
+            )
+        scored.sort(key=lambda c: -c["statistic"] / c["dof"])
+        candidates = [c for c in scored if c["significant"]][:3]
+        round_summary = [
+            {k: v for k, v in c.items() if k not in ("directions", "step")}
+            for c in scored
+        ]
+        rounds.append(round_summary)
+        if not candidates:
+            break
+        natural = {}
+        rms_y = float(np.sqrt(np.mean(y**2)))
+        for p, col in extra.items():
+            norm = float(np.sqrt(np.mean(col**2)))
+            natural[p] = rms_y / norm if norm > 0 else 1.0
+        results = []
+        for cand in candidates:
+            effect = cand["effect"]
+            trial = current
+            if effect == "dynamics":
+                a1 = cand["step"].get("natural_frequency", 0.0)
+                a2 = cand["step"].get("damping_ratio", 0.0)
+                if a2 > 0 and a1 > 0:
+                    omega = 1 / math.sqrt(a2)
+                    zeta = min(2.0, max(0.01, a1 * omega / 2))
+                    fn = min(0.45 * fs, omega / (2 * math.pi))
+                else:
+                    fn, zeta = 0.1 * fs, 0.3
+                trial = current.with_dynamics(fn, zeta)
+            else:
+                trial = _damped_start(current, cand["step"], inputs, y, fit_mask)
+            names = free + list(CATALOGUE[effect].parameters)
+            try:
+                refit = _refit(
+                    trial, names, inputs, measured, weights, natural, fs, duration
+                )
+            except Exception as error:  # a failed candidate is just rejected
+                for entry in round_summary:
+                    if entry["effect"] == effect:
+                        entry["refit_error"] = str(error).splitlines()[0][:200]
+                continue
+            new_pred = np.asarray(
+                simulate(
+                    refit, inputs, _solver_for(refit, float(inputs.dt)), throw=False
+                )
+            )
+            if not np.all(np.isfinite(new_pred)):
+                for entry in round_summary:
+                    if entry["effect"] == effect:
+                        entry["refit_error"] = "the refitted model diverged"
+                continue
+            new_res = y - new_pred
+            before_hold, after_hold = (
+                _mse(residual, hold_mask),
+                _mse(new_res, hold_mask),
+            )
+            before_fit, after_fit = _mse(residual, fit_mask), _mse(new_res, fit_mask)
+            n_eff_hold = neff_ratio * hold_mask.sum()
+            n_eff_fit = neff_ratio * fit_mask.sum()
+            change = np.sqrt(np.mean((new_pred - predicted)[hold_mask] ** 2))
+            # The held-out MSE drop must beat its own noise, ~2*sigma*rms(change)/sqrt(N_eff).
+            margin = max(
+                0.005 * before_hold, 3 * 2 * noise_sd * change / math.sqrt(n_eff_hold)
+            )
+            p = len(CATALOGUE[effect].parameters)
+            bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(
+                n_eff_fit
+            )
+            results.append(
+                {
+                    "candidate": cand,
+                    "model": refit,
+                    "predicted": new_pred,
+                    "validation": {
+                        "heldout_rmse_before": math.sqrt(before_hold),
+                        "heldout_rmse_after": math.sqrt(after_hold),
+                        "fit_rmse_before": math.sqrt(before_fit),
+                        "fit_rmse_after": math.sqrt(after_fit),
+                        "heldout_margin_mse": margin,
+                        "effective_samples_heldout": n_eff_hold,
+                        "bic_change": bic_change,
+                        "score_statistic": cand["statistic"],
+                        "score_dof": cand["dof"],
+                        "log10_p": cand["log10_p"],
+                        "accepted": bool(
+                            before_hold - after_hold > margin and bic_change < 0
+                        ),
+                    },
+                }
+            )
+        for result in results:
+            for entry in round_summary:
+                if entry["effect"] == result["candidate"]["effect"]:
+                    entry["validation"] = result["validation"]
+        accepted = [r for r in results if r["validation"]["accepted"]]
+        if not accepted:
+            break
+        accepted.sort(key=lambda r: r["validation"]["heldout_rmse_after"])
+        winner = accepted[0]
+        effect = winner["candidate"]["effect"]
+        for other in accepted[1:]:
+            gain_w = (
+                winner["validation"]["heldout_rmse_before"]
+                - winner["validation"]["heldout_rmse_after"]
+            )
+            gain_o = (
+                other["validation"]["heldout_rmse_before"]
+                - other["validation"]["heldout_rmse_after"]
+            )
+            overlap = _max_canonical_correlation(
+                winner["candidate"]["directions"], other["candidate"]["directions"]
+            )
+            if gain_o > 0.8 * gain_w and overlap > 0.9:
+                ambiguities.append(
+                    f"cannot tell {effect} from {other['candidate']['effect']} on this "
+                    f"recording: both explain the mismatch about equally (held-out "
+                    f"RMSE {winner['validation']['heldout_rmse_after']:.3g} vs "
+                    f"{other['validation']['heldout_rmse_after']:.3g}; their "
+                    f"signatures overlap, canonical correlation {overlap:.2f}). "
+                    "Excite several rates/frequencies (and holds) to separate them; "
+                    f"{effect} is kept for the fit."
+                )
+        where_now = locate(t, np.asarray(recording.u), y - predicted)
+        before = error_metrics(y, predicted)
+        after = error_metrics(y, winner["predicted"])
+        findings.append(
+            Finding(
+                effect,
+                _evidence(effect, winner, where_now),
+                describe(where_now),
+                float(winner["candidate"]["statistic"]),
+                {
+                    p: float(getattr(winner["model"], p))
+                    for p in CATALOGUE[effect].parameters
+                },
+                before,
+                after,
+                winner["validation"],
+            )
+        )
+        current = winner["model"]
+        predicted = winner["predicted"]
+        free = free + [p for p in CATALOGUE[effect].parameters if p not in free]
+
+    final_model = current
+    if findings:
+        final_model = _refit(
+            current, free, inputs, measured, None, {}, fs, duration, max_steps=30
+        )
+        final_pred = np.asarray(
+            simulate(
+                final_model,
+                inputs,
+                _solver_for(final_model, float(inputs.dt)),
+                throw=False,
+            )
+        )
+        if not (
+            np.all(np.isfinite(final_pred))
+            and _mse(y - final_pred, slice(None)) <= _mse(y - predicted, slice(None))
+        ):
+            final_model, final_pred = current, predicted
+    else:
+        final_pred = predicted
+    final = error_metrics(y, final_pred)
+    final_residual = y - final_pred
+    centred = final_residual - final_residual.mean()
+    lag1 = float(
+        np.dot(centred[:-1], centred[1:]) / max(np.dot(centred, centred), 1e-300)
+    )
+    noise = {
+        "sigma": float(np.sqrt(np.mean(final_residual**2))),
+        "lag1_autocorrelation": lag1,
+        "effective_samples": effective_samples(final_residual),
+    }
+    return Diagnosis(
+        recording.name,
+        n,
+        base,
+        final_model,
+        baseline,
+        final,
+        findings,
+        rounds,
+        ambiguities,
+        noise["sigma"],
+        noise,
+        location,
+        base_predicted,
+        final_pred,
+        float(holdout_fraction),
+        time.perf_counter() - start_time,
+    )
+
+
+def _evidence(effect: str, winner: dict[str, Any], where: dict[str, Any]) -> str:
+    v = winner["validation"]
+    gain = 1 - v["heldout_rmse_after"] / v["heldout_rmse_before"]
+    words = CATALOGUE[effect].meaning
+    specific = {
+        "asymmetry": (
+            f"mean residual {where['ascending']['mean']:.3g} on the ascending vs "
+            f"{where['descending']['mean']:.3g} on the descending branch"
+        ),
+        "input_bias": (
+            f"residual near reversals is {where['near_reversals']['relative']:.2f}x "
+            "the overall RMS, as a time shift of the drive produces"
+        ),
+        "rate_dependence": (
+            f"residual RMS at fast rates is {where['fast_rate']['relative']:.2f}x and at "
+            f"slow rates {where['slow_rate']['relative']:.2f}x the overall"
+        ),
+        "creep": (
+            f"residual in the 2 s after holds begin is "
+            f"{where['after_hold']['relative']:.2f}x the overall RMS"
+        ),
+        "dynamics": (
+            f"residual dominated by {where['dominant_frequency_hz']:.3g} Hz content and "
+            f"fast rates ({where['fast_rate']['relative']:.2f}x)"
+        ),
+        "drift": (
+            f"a slow trend carries {where['slow_trend_rms'] / max(where['overall_rms'], 1e-300):.0%} "
+            "of the residual"
+        ),
+    }[effect]
+    return (
+        f"{words}. Score test: statistic {v['score_statistic']:.3g} on {v['score_dof']} "
+        f"dof (log10 p = {v['log10_p']:.1f}); {specific}. Adding it cut the held-out "
+        f"RMSE by {gain:.0%} ({v['heldout_rmse_before']:.3g} -> "
+        f"{v['heldout_rmse_after']:.3g})."
+    )

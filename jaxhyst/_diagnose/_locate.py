@@ -1,0 +1,126 @@
+"""Where a residual lives: branches, reversals, extremes, rates, holds, time, frequency."""
+
+from typing import Any
+
+import numpy as np
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+
+
+def effective_samples(residual: np.ndarray, max_lag: int | None = None) -> float:
+    """Effective number of independent samples of a correlated residual,
+    N / (1 + 2*sum of autocorrelations up to the first non-positive one)."""
+    r = residual - residual.mean()
+    n = r.size
+    var = float(np.dot(r, r)) / n
+    if var == 0:
+        return float(n)
+    max_lag = max_lag or min(n // 4, 5000)
+    spectrum = np.fft.rfft(r, 2 * n)
+    acov = np.fft.irfft(spectrum * np.conj(spectrum))[: max_lag + 1] / n
+    rho = acov / acov[0]
+    total = 0.0
+    for k in range(1, max_lag + 1):
+        if rho[k] <= 0:
+            break
+        total += rho[k]
+    return n / (1 + 2 * total)
+
+
+def locate(t: np.ndarray, u: np.ndarray, residual: np.ndarray) -> dict[str, Any]:
+    """Residual RMS (and mean) by category, relative to its overall RMS.
+
+    Categories: ascending / descending / holding; near reversals (within 2 % of the
+    record's reversals' spacing) vs elsewhere; extremes (outer 10 % of the input
+    range); slow / medium / fast rate terciles; the first 2 s after a hold begins;
+    the slow trend (1 s moving average) and the dominant residual frequency.
+    """
+    dt = float(t[1] - t[0])
+    udot = np.gradient(u, dt)
+    overall = _rms(residual)
+    speed = np.abs(udot)
+    moving = speed > 1e-3 * (np.max(speed) + 1e-300)
+    ascending = moving & (udot > 0)
+    descending = moving & (udot < 0)
+    holding = ~moving
+    flips = np.flatnonzero(np.diff(np.sign(udot[moving])) != 0)
+    reversal_index = np.flatnonzero(moving)[flips] if flips.size else np.array([], int)
+    near = np.zeros(u.size, bool)
+    window = max(1, int(0.05 / dt))
+    for i in reversal_index:
+        near[max(0, i - window) : i + window + 1] = True
+    lo, hi = np.min(u), np.max(u)
+    extreme = (u < lo + 0.1 * (hi - lo)) | (u > hi - 0.1 * (hi - lo))
+    terciles = np.quantile(speed[moving], [1 / 3, 2 / 3]) if moving.any() else [0, 0]
+    slow = moving & (speed <= terciles[0])
+    fast = moving & (speed > terciles[1])
+    medium = moving & ~slow & ~fast
+    after_hold = np.zeros(u.size, bool)
+    hold_starts = np.flatnonzero(np.diff(holding.astype(int)) == 1)
+    for i in hold_starts:
+        after_hold[i : i + int(2.0 / dt)] = True
+    kernel = max(1, int(1.0 / dt))
+    trend = np.convolve(residual, np.ones(kernel) / kernel, mode="same")
+    spectrum = np.abs(np.fft.rfft(residual - residual.mean())) ** 2
+    freqs = np.fft.rfftfreq(residual.size, dt)
+    usable = freqs > 2.0 / (t[-1] - t[0])
+    peak = float(freqs[usable][np.argmax(spectrum[usable])]) if usable.any() else 0.0
+
+    def category(mask):
+        return {
+            "rms": _rms(residual[mask]),
+            "mean": float(np.mean(residual[mask])) if mask.any() else float("nan"),
+            "fraction": float(np.mean(mask)),
+            "relative": _rms(residual[mask]) / overall if overall > 0 else float("nan"),
+        }
+
+    return {
+        "overall_rms": overall,
+        "ascending": category(ascending),
+        "descending": category(descending),
+        "holding": category(holding),
+        "near_reversals": category(near),
+        "away_from_reversals": category(~near),
+        "extremes": category(extreme),
+        "slow_rate": category(slow),
+        "medium_rate": category(medium),
+        "fast_rate": category(fast),
+        "after_hold": category(after_hold),
+        "slow_trend_rms": _rms(trend),
+        "dominant_frequency_hz": peak,
+        "effective_samples": effective_samples(residual),
+    }
+
+
+def describe(where: dict[str, Any]) -> str:
+    """One sentence naming the categories where the residual stands out."""
+    labels = {
+        "ascending": "on the ascending branch",
+        "descending": "on the descending branch",
+        "holding": "while the input holds",
+        "near_reversals": "near reversals",
+        "extremes": "at the extremes of the stroke",
+        "slow_rate": "at slow rates",
+        "fast_rate": "at fast rates",
+        "after_hold": "in the seconds after a hold begins",
+    }
+    parts = []
+    for key, label in labels.items():
+        entry = where[key]
+        if entry["fraction"] > 0.01 and entry["relative"] > 1.25:
+            parts.append(f"{label} ({entry['relative']:.1f}x the overall RMS)")
+    overall = where["overall_rms"]
+    if overall > 0 and where["slow_trend_rms"] > 0.5 * overall:
+        parts.append(
+            f"as a slow trend in time ({where['slow_trend_rms'] / overall:.0%} of it "
+            "survives a 1 s average)"
+        )
+    if not parts:
+        parts.append("spread evenly over the record")
+    return (
+        "mismatch "
+        + "; ".join(parts)
+        + f"; dominant residual frequency {where['dominant_frequency_hz']:.3g} Hz"
+    )

@@ -1,0 +1,179 @@
+"""The piezo model with every effect of the diagnosis catalogue built in.
+
+Each effect's parameters default to zero, and at zero the model is *exactly*
+`PiezoBoucWen` (the effects are nested extensions). The diagnosis switches effects on
+by freeing their parameters; `dynamic=True` adds the stage's inertia and damping.
+"""
+
+import dataclasses
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .._inputs import InputPath
+from .._smoothing import AbstractSmoothing, ExactSign
+from .base import AbstractHysteresisModel, hysteretic_rate, parameter_field, read_input
+from .bouc_wen import PiezoBoucWen, ShiftedDrive
+
+
+class ExtendedPiezo(AbstractHysteresisModel):
+    """`PiezoBoucWen` plus the catalogue's effects (all off at zero):
+
+    - asymmetry:       hdot += eps*u*sign(udot)  (the paper's Delta_Phi);
+                       y += quad*((u - input_center)/input_scale)^2
+    - input_bias:      the hysteresis sees V(t) = u(t + phi)
+    - rate_dependence: hdot *= 1 + rate_gain*|udot|/rate_scale;  y += viscous*udot/rate_scale
+    - creep:           y += creep_fast*(c1 - u) + creep_slow*(c2 - u),
+                       ci' = (u - ci)/tau_i with tau = creep_times
+    - drift:           y += offset + trend*s + curvature*(s^2 - 1/3),
+                       s = (t - time_center)/time_scale in [-1, 1]
+    - dynamics:        with `dynamic=True`, y is the static response seen through
+                       ydd/omega^2 + (2 zeta/omega) yd + y = y_static (omega from
+                       natural_frequency, zeta = damping_ratio)
+
+    The *_center/*_scale fields normalise the effects to the recording and are not
+    fitted. State: (h, c1, c2, y_dyn, yd_dyn).
+    """
+
+    k1: Float[Array, ""] = parameter_field()
+    k2: Float[Array, ""] = parameter_field()
+    A1: Float[Array, ""] = parameter_field()
+    beta1: Float[Array, ""] = parameter_field()
+    gamma1: Float[Array, ""] = parameter_field()
+    n: Float[Array, ""] = parameter_field()
+    eps: Float[Array, ""] = parameter_field(default=0.0)
+    quad: Float[Array, ""] = parameter_field(default=0.0)
+    phi: Float[Array, ""] = parameter_field(default=0.0)
+    rate_gain: Float[Array, ""] = parameter_field(default=0.0)
+    viscous: Float[Array, ""] = parameter_field(default=0.0)
+    creep_fast: Float[Array, ""] = parameter_field(default=0.0)
+    creep_slow: Float[Array, ""] = parameter_field(default=0.0)
+    offset: Float[Array, ""] = parameter_field(default=0.0)
+    trend: Float[Array, ""] = parameter_field(default=0.0)
+    curvature: Float[Array, ""] = parameter_field(default=0.0)
+    natural_frequency: Float[Array, ""] = parameter_field(default=1e3)
+    damping_ratio: Float[Array, ""] = parameter_field(default=0.7)
+    input_center: Float[Array, ""] = parameter_field(default=0.0, kw_only=True)
+    input_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
+    rate_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
+    time_center: Float[Array, ""] = parameter_field(default=0.0, kw_only=True)
+    time_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
+    creep_times: tuple[float, float] = eqx.field(default=(0.3, 3.0), static=True, kw_only=True)
+    dynamic: bool = eqx.field(default=False, static=True, kw_only=True)
+    smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
+
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "k1",
+        "k2",
+        "A1",
+        "beta1",
+        "gamma1",
+        "n",
+        "eps",
+        "quad",
+        "phi",
+        "rate_gain",
+        "viscous",
+        "creep_fast",
+        "creep_slow",
+        "offset",
+        "trend",
+        "curvature",
+        "natural_frequency",
+        "damping_ratio",
+    )
+    state_size: ClassVar[int] = 5
+
+    @classmethod
+    def around(
+        cls,
+        base: AbstractHysteresisModel,
+        inputs: InputPath,
+        *,
+        dynamic: bool = False,
+    ) -> "ExtendedPiezo":
+        """All effects off around a fitted piezo model, normalised to `inputs`."""
+        params = {k: base.parameters()[k] for k in PiezoBoucWen.parameter_names}
+        u = inputs.values
+        rate = jnp.diff(u) / inputs.dt
+        return cls(
+            **params,
+            input_center=(jnp.max(u) + jnp.min(u)) / 2,
+            input_scale=jnp.maximum((jnp.max(u) - jnp.min(u)) / 2, 1e-30),
+            rate_scale=jnp.maximum(jnp.sqrt(jnp.mean(rate**2)), 1e-30),
+            time_center=(inputs.t0 + inputs.t1) / 2,
+            time_scale=(inputs.t1 - inputs.t0) / 2,
+            dynamic=dynamic,
+            smoothing=base.smoothing,
+        )
+
+    def with_dynamics(self, natural_frequency, damping_ratio) -> "ExtendedPiezo":
+        """The same model seen through the stage's inertia and damping."""
+        return dataclasses.replace(
+            self,
+            dynamic=True,
+            natural_frequency=natural_frequency,
+            damping_ratio=damping_ratio,
+        )
+
+    def drive(self, path, t, interval=None, frac=None) -> ShiftedDrive:
+        u, udot = read_input(path, t, interval, frac)
+        if interval is None or frac is None:
+            v, vdot = path.evaluate(t + self.phi)
+        else:
+            v, vdot = path.on_interval_shifted(interval, frac, self.phi)
+        return ShiftedDrive(u, udot, v, vdot)
+
+    def _static_output(self, t, state, drive):
+        h, c_fast, c_slow = state[0], state[1], state[2]
+        u = drive.u
+        centred = (u - self.input_center) / self.input_scale
+        return (
+            self.k1 * u
+            + self.k2 * h
+            + self.quad * centred**2
+            + self.viscous * drive.udot / self.rate_scale
+            + self.creep_fast * (c_fast - u)
+            + self.creep_slow * (c_slow - u)
+        )
+
+    def _drift(self, t):
+        s = (t - self.time_center) / self.time_scale
+        return self.offset + self.trend * s + self.curvature * (s**2 - 1.0 / 3.0)
+
+    def vector_field(self, t, state, drive: ShiftedDrive):
+        s = self.smoothing
+        h = state[0]
+        hdot = hysteretic_rate(
+            s, h, drive.vdot, self.A1, self.beta1, self.gamma1, self.n
+        ) * (1 + self.rate_gain * s.abs(drive.udot) / self.rate_scale)
+        hdot = hdot + self.eps * drive.u * s.sign(drive.udot)
+        tau_fast, tau_slow = self.creep_times
+        c_fast_dot = (drive.u - state[1]) / tau_fast
+        c_slow_dot = (drive.u - state[2]) / tau_slow
+        if self.dynamic:
+            omega = 2 * jnp.pi * self.natural_frequency
+            target = self._static_output(t, state, drive)
+            y, yd = state[3], state[4]
+            ydd = omega**2 * (target - y) - 2 * self.damping_ratio * omega * yd
+        else:
+            yd = jnp.zeros_like(h)
+            ydd = jnp.zeros_like(h)
+        return jnp.stack([hdot, c_fast_dot, c_slow_dot, yd, ydd])
+
+    def output(self, t, state, drive):
+        if self.dynamic:
+            response = state[3]
+        else:
+            response = self._static_output(t, state, drive)
+        return response + self._drift(t)
+
+    def initial_state(self, drive):
+        u = jnp.asarray(drive.u)
+        zero = jnp.zeros_like(u)
+        state = jnp.stack([zero, u, u, zero, zero])
+        if self.dynamic:
+            state = state.at[3].set(self._static_output(0.0, state, drive))
+        return state

@@ -1,0 +1,257 @@
+"""The `jaxhyst` command line (run in-process through `main`) and the plot helpers."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+from jaxhyst._cli import main
+from jaxhyst._plots import plot_error_trend, plot_loop, plot_time_history
+
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("jaxhyst: error: "), err
+    return lines[0]
+
+
+def _outputs(folder):
+    return folder / "simulation.csv", folder / "loop.png"
+
+
+def test_default_run_writes_the_paper_simulation(tmp_path, capsys):
+    out = tmp_path / "new" / "folder"
+    assert main(["simulate", "--out", str(out)]) == 0
+    csv_path, png_path = _outputs(out)
+    stdout = capsys.readouterr().out
+    assert str(csv_path) in stdout and str(png_path) in stdout
+
+    recording = jh.Recording.load(csv_path)
+    assert recording.num_samples == 10001
+    assert recording.dt == pytest.approx(1e-3)
+    assert (recording.input_unit, recording.output_unit) == ("V", "m")
+    t = recording.t
+    np.testing.assert_allclose(recording.u, 2 - 2 * np.cos(0.2 * np.pi * t), atol=1e-12)
+    expected = jh.simulate(
+        jh.PiezoBoucWen.paper_table4(3), jh.sample(jh.paper_u1(), 1000.0)
+    )
+    np.testing.assert_allclose(recording.y, expected, rtol=1e-12, atol=1e-18)
+    assert 100e-6 < recording.y.max() < 130e-6  # metres: the loop spans ~117 um
+    assert png_path.read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_param_override_changes_the_output(tmp_path, capsys):
+    assert main(["simulate", "--out", str(tmp_path / "a")]) == 0
+    argv = ["simulate", "--param", "k2=0.5", "--param", "n=2", "--out"]
+    assert main([*argv, str(tmp_path / "b")]) == 0
+    assert "overridden: k2, n" in capsys.readouterr().out
+    base = jh.Recording.load(tmp_path / "a" / "simulation.csv")
+    changed = jh.Recording.load(tmp_path / "b" / "simulation.csv")
+    assert not np.allclose(base.y, changed.y, rtol=1e-6, atol=0)
+    model = jh.PiezoBoucWen.paper_table4(3).replace(k2=0.5, n=2.0)
+    expected = jh.simulate(model, jh.sample(jh.paper_u1(), 1000.0))
+    np.testing.assert_allclose(changed.y, expected, rtol=1e-12, atol=1e-18)
+
+
+def test_refuses_to_overwrite_without_force(tmp_path, capsys):
+    argv = ["simulate", "--rate", "100", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    csv_path, png_path = _outputs(tmp_path)
+    csv_path.write_text("user data\n")
+    capsys.readouterr()
+
+    assert main(argv) == 2
+    line = _one_error_line(capsys)
+    assert "already exist" in line and "--force" in line
+    assert csv_path.read_text() == "user data\n"
+
+    assert main([*argv, "--force"]) == 0
+    assert jh.Recording.load(csv_path).num_samples == 1001
+
+
+def test_refuses_when_only_one_output_exists(tmp_path, capsys):
+    (tmp_path / "loop.png").write_bytes(b"mine")
+    assert main(["simulate", "--rate", "100", "--out", str(tmp_path)]) == 2
+    assert "loop.png" in _one_error_line(capsys)
+    assert (tmp_path / "loop.png").read_bytes() == b"mine"
+    assert not (tmp_path / "simulation.csv").exists()
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["simulate", "--model", "preisach"], "invalid choice: 'preisach'"),
+        (["simulate", "--signal", "noise"], "invalid choice: 'noise'"),
+        (["simulate", "--periods", "0"], "--periods"),
+        (["simulate", "--rate", "fast"], "--rate"),
+        (["simulate", "--bogus"], "unrecognized arguments: --bogus"),
+        ([], "required: COMMAND"),
+        (["fit-everything"], "invalid choice"),
+    ],
+)
+def test_usage_errors_are_one_line_with_exit_2(argv, expected, tmp_path, capsys):
+    assert main([*argv, "--out", str(tmp_path)] if argv else argv) == 2
+    line = _one_error_line(capsys)
+    assert expected in line
+    assert "--help" in line
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    "param, expected",
+    [
+        ("k9=1", "unknown parameter 'k9'"),
+        ("k1=abc", "'abc' is not a number"),
+        ("k1", "expected NAME=VALUE"),
+        ("=3", "expected NAME=VALUE"),
+        ("k1=nan", "must be finite"),
+    ],
+)
+def test_bad_param_lists_the_valid_names(param, expected, tmp_path, capsys):
+    assert main(["simulate", "--param", param, "--out", str(tmp_path)]) == 2
+    line = _one_error_line(capsys)
+    assert expected in line
+    assert "k1, k2, A1, beta1, gamma1, n" in line
+    assert not list(tmp_path.iterdir())
+
+
+def test_param_names_follow_the_model(tmp_path, capsys):
+    argv = ["simulate", "--model", "bouc-wen", "--param", "k1=1", "--out"]
+    assert main([*argv, str(tmp_path)]) == 2
+    assert "k, alpha, D, A, beta, gamma, n" in _one_error_line(capsys)
+
+
+def test_out_that_is_a_file_is_an_error(tmp_path, capsys):
+    target = tmp_path / "results"
+    target.write_text("not a folder")
+    assert main(["simulate", "--out", str(target)]) == 2
+    assert "is a file, not a folder" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize(
+    "model, signal",
+    [
+        ("corrected", "multisine"),
+        ("bouc-wen", "triangle"),
+        ("stage", "chirp"),
+        ("piezo", "u2"),
+    ],
+)
+def test_every_model_and_signal_runs(model, signal, tmp_path, capsys):
+    argv = ["simulate", "--model", model, "--signal", signal, "--periods", "0.5"]
+    assert main([*argv, "--rate", "200", "--out", str(tmp_path)]) == 0
+    recording = jh.Recording.load(tmp_path / "simulation.csv")
+    assert recording.num_samples == 1001
+    assert np.all(np.isfinite(recording.y)) and np.ptp(recording.y) > 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_unstable_parameters_warn(tmp_path, capsys):
+    argv = ["simulate", "--model", "bouc-wen", "--signal", "triangle", "--rate", "100"]
+    params = ["--param", "beta=-1", "--param", "gamma=-0.5"]
+    assert main([*argv, *params, "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("jaxhyst: warning: ") and "Table 2" in err
+
+
+def test_divergence_is_an_error_and_writes_nothing(tmp_path, capsys):
+    argv = ["simulate", "--model", "bouc-wen", "--rate", "100", "--out"]
+    params = ["--param", "beta=-5", "--param", "gamma=-5", "--param", "n=2"]
+    assert main([*argv, str(tmp_path / "out"), *params]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("jaxhyst: warning: ")
+    assert err[1].startswith("jaxhyst: error: the simulation diverged")
+    assert len(err) == 2
+    assert not (tmp_path / "out").exists()
+
+
+def test_missing_matplotlib_gives_the_install_hint(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
+    assert main(["simulate", "--out", str(tmp_path / "out")]) == 2
+    assert "pip install 'jaxhyst[plot]'" in _one_error_line(capsys)
+    assert not (tmp_path / "out").exists()
+
+
+def test_help_and_version_exit_0(capsys):
+    assert main(["--help"]) == 0
+    assert "simulate" in capsys.readouterr().out
+    assert main(["simulate", "--help"]) == 0
+    assert "--param NAME=VALUE" in capsys.readouterr().out
+    assert main(["--version"]) == 0
+    assert jh.__version__ in capsys.readouterr().out
+
+
+def test_python_dash_m_runs_the_cli(tmp_path):
+    out = tmp_path / "run"
+    result = subprocess.run(
+        [sys.executable, "-m", "jaxhyst", "simulate", "--rate", "100"]
+        + ["--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "wrote" in result.stdout
+    assert jh.Recording.load(out / "simulation.csv").num_samples == 1001
+    again = subprocess.run(
+        [sys.executable, "-m", "jaxhyst", "simulate", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert again.returncode == 2
+    assert "Traceback" not in again.stderr
+    assert again.stderr.startswith("jaxhyst: error: ")
+
+
+# ------------------------------------------------------------------------ plots
+
+
+def test_plots_write_pngs(tmp_path):
+    t = np.linspace(0.0, 10.0, 201)
+    u = 2 - 2 * np.cos(0.2 * np.pi * t)
+    y = u + 0.1 * np.sin(0.2 * np.pi * t)
+    curves = {"measured": y, "model": 1.01 * y}
+    paths = [
+        plot_loop(
+            tmp_path / "loop.png",
+            u,
+            curves,
+            xlabel="u [V]",
+            ylabel="y [um]",
+            title="loop",
+            detrend=True,
+        ),
+        plot_loop(tmp_path / "plain.png", u, {"": y}, xlabel="u", ylabel="y", title=""),
+        plot_time_history(tmp_path / "history.png", t, u, curves, scale=1e6),
+        plot_error_trend(tmp_path / "error.png", t, {"model": 0.01 * y}, log=True),
+    ]
+    for path, name in zip(paths, ("loop", "plain", "history", "error"), strict=True):
+        assert path == tmp_path / f"{name}.png"
+        assert path.read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_plots_check_their_inputs(tmp_path):
+    u = np.arange(5.0)
+    labels = dict(xlabel="u", ylabel="y", title="")
+    with pytest.raises(ValueError, match="'model' has 4 samples"):
+        plot_loop(tmp_path / "a.png", u, {"model": u[:4]}, **labels)
+    with pytest.raises(ValueError, match="non-empty dict"):
+        plot_loop(tmp_path / "a.png", u, {}, **labels)
+    with pytest.raises(ValueError, match="not a .png path"):
+        plot_error_trend(tmp_path / "a.pdf", u, {"e": u})
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        plot_error_trend(tmp_path / "missing" / "a.png", u, {"e": u})
+    (tmp_path / "taken.png").write_bytes(b"mine")
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        plot_time_history(tmp_path / "taken.png", u, u, {"y": u})
+    assert (tmp_path / "taken.png").read_bytes() == b"mine"
+    plot_time_history(tmp_path / "taken.png", u, u, {"y": u}, overwrite=True)
+    assert (tmp_path / "taken.png").read_bytes().startswith(PNG_SIGNATURE)
