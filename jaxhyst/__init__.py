@@ -8,6 +8,17 @@ from ._datasets import (
     load_bouc_wen_benchmark as load_bouc_wen_benchmark,
     load_piezo_actuator as load_piezo_actuator,
 )
+from ._diagnose._catalogue import (
+    CATALOGUE as CATALOGUE,
+    EFFECT_NAMES as EFFECT_NAMES,
+    Effect as Effect,
+)
+from ._diagnose._engine import (
+    Diagnosis as Diagnosis,
+    Finding as Finding,
+    diagnose as diagnose,
+)
+from ._diagnose._locate import locate as locate
 from ._identify import (
     AbstractPolish as AbstractPolish,
     AdamPolish as AdamPolish,
@@ -45,6 +56,7 @@ from ._models.bouc_wen import (
     PiezoStage as PiezoStage,
     ShiftedDrive as ShiftedDrive,
 )
+from ._models.extended import ExtendedPiezo as ExtendedPiezo
 from ._models.oscillator import HystereticOscillator as HystereticOscillator
 from ._params import ParameterSpace as ParameterSpace
 from ._recording import Recording as Recording, RecordingError as RecordingError

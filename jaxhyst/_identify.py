@@ -68,6 +68,11 @@ def _swarm_objective(z, problem: Problem):
     return problem.rmse(z)
 
 
+@eqx.filter_jit
+def _problem_rmse(problem: Problem, z):
+    return problem.rmse(z)
+
+
 # ----------------------------------------------------------------------------- polish
 
 
@@ -94,16 +99,15 @@ class AbstractPolish(eqx.Module):
     def run(self, problem: Problem, z0: Float[Array, " d"]) -> PolishResult:
         """Refine from `z0`; never returns a worse point than `z0`."""
         start = time.perf_counter()
-        rmse = eqx.filter_jit(problem.rmse.__func__)  # type: ignore[attr-defined]
         z = z0
-        best_z, best = z0, float(rmse(problem, z0))
+        best_z, best = z0, float(_problem_rmse(problem, z0))
         history = [best]
         taken, converged = 0, False
         chunk = max(1, min(10, self.max_steps))
         while taken < self.max_steps and not converged:
             z, converged = self._advance(problem, z, chunk)
             taken += chunk
-            loss = float(rmse(problem, z))
+            loss = float(_problem_rmse(problem, z))
             history.append(loss)
             if not np.isfinite(loss):
                 break
@@ -192,17 +196,16 @@ class AdamPolish(AbstractPolish):
 
     def run(self, problem: Problem, z0: Float[Array, " d"]) -> PolishResult:
         start = time.perf_counter()
-        rmse = eqx.filter_jit(problem.rmse.__func__)  # type: ignore[attr-defined]
         opt_state = optax.adam(self.learning_rate).init(z0)
         z, best_z = z0, z0
-        best = float(rmse(problem, z0))
+        best = float(_problem_rmse(problem, z0))
         history = [best]
         chunk = 50
         taken = 0
         while taken < self.max_steps:
             z, opt_state = _adam_steps(problem, z, opt_state, self.learning_rate, chunk)
             taken += chunk
-            loss = float(rmse(problem, z))
+            loss = float(_problem_rmse(problem, z))
             history.append(loss)
             if np.isfinite(loss) and loss < best:
                 best_z, best = z, loss
@@ -465,8 +468,7 @@ def identify(
         seeds.append(swarm_result.best_x)
     if start is not None:
         seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
-    rmse = eqx.filter_jit(Problem.rmse)
-    scores = [float(rmse(problem, z)) for z in seeds]
+    scores = [float(_problem_rmse(problem, z)) for z in seeds]
     z = seeds[int(np.nanargmin(np.where(np.isfinite(scores), scores, np.inf)))]
     polish_result = None
     if polish is not None:

@@ -8,7 +8,7 @@ search raw values of wildly different magnitudes.
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Bool, Float
 
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import (
@@ -39,6 +39,7 @@ class ParameterSpace(eqx.Module):
     lower: Float[Array, " d"]
     upper: Float[Array, " d"]
     floor: Float[Array, " d"]
+    frozen: Bool[Array, " d"]
 
     def __init__(
         self,
@@ -46,6 +47,7 @@ class ParameterSpace(eqx.Module):
         bounds: dict[str, tuple[float, float]],
         *,
         log_scale: tuple[str, ...] | list[str] = (),
+        frozen: tuple[str, ...] | list[str] = (),
     ):
         if not isinstance(template, AbstractHysteresisModel):
             raise TypeError(
@@ -90,6 +92,9 @@ class ParameterSpace(eqx.Module):
         self.upper = jnp.asarray(upper)
         # Physical limits that hold even when a polish steps outside the box.
         self.floor = jnp.asarray([_HARD_FLOORS.get(n, -jnp.inf) for n in names])
+        # Frozen parameters keep the template's value whatever z says. The mask is
+        # traced, so fits over different subsets of one space share a compilation.
+        self.frozen = jnp.asarray([n in frozen for n in names], bool)
 
     @property
     def dimension(self) -> int:
@@ -117,12 +122,25 @@ class ParameterSpace(eqx.Module):
 
     def to_model(self, z: Float[ArrayLike, " d"]) -> AbstractHysteresisModel:
         """The template with the free parameters set from unit-box coordinates."""
-        values = self.to_values(z)
+        values = jnp.where(self.frozen, self._template_values(), self.to_values(z))
         return eqx.tree_at(
             lambda m: [getattr(m, n) for n in self.names],
             self.template,
             [values[i] for i in range(self.dimension)],
         )
+
+    def _template_values(self) -> Float[Array, " d"]:
+        return jnp.stack([jnp.asarray(getattr(self.template, n)) for n in self.names])
+
+    def with_frozen(self, names: tuple[str, ...] | list[str]) -> "ParameterSpace":
+        """The same space with `names` held at the template's values."""
+        unknown = sorted(set(names) - set(self.names))
+        if unknown:
+            raise ValueError(
+                f"ParameterSpace.with_frozen: {unknown} are not in the space."
+            )
+        mask = jnp.asarray([n in names for n in self.names], bool)
+        return eqx.tree_at(lambda s: s.frozen, self, mask)
 
     def from_model(self, model: AbstractHysteresisModel) -> Float[Array, " d"]:
         """Unit-box coordinates of a model's free parameters."""

@@ -532,8 +532,9 @@ def rich_excitation(
     triangles, and step-and-hold plateaus (1-3 s holds), joined by smooth moves.
 
     It starts with a short rest at 0 V and ends with a hold at a low level. The signal
-    is continuous (`Concatenate` checks it), so is every rate change but the
-    triangles' and steps' corners.
+    is continuous (`Concatenate` checks it), and so is its rate except at the
+    triangles' and the steps' corners. Short records (under ~20 s) get shorter,
+    faster segments, so they still mix rates.
     """
     _check_positive("rich_excitation", "duration", duration)
     _check_positive("rich_excitation", "rate", rate)
@@ -1074,6 +1075,12 @@ def concealed_recording(
     draw each from [3, 10]. `noise` is "white" (Gaussian) or "coloured" (AR(1) with
     coefficient 0.9-0.98, sometimes plus a little white noise, at the same marginal
     sigma); sigma is 0.05-0.2 % of the output range.
+
+    `sizes` reports what was reached (within 0.5 % of the request). Where a variant
+    cannot reach the request (a branch-dependent beta or a rate-dependent amplitude
+    bounded by the hysteresis itself) the other variant of that effect is used; a
+    stage mode is never shown with a participation above 1, so on a record with
+    little fast content a dynamics effect can come out smaller than requested.
 
     Everything random follows from `key`: the excitation, the base model, each
     effect's variant and size, and the noise. The same key with different effects

@@ -13,7 +13,15 @@ import numpy as np
 from jaxtyping import PRNGKeyArray
 from scipy import stats
 
-from .._identify import Fit, LevenbergMarquardtPolish, Problem, identify
+from .._identify import (
+    Fit,
+    LevenbergMarquardtPolish,
+    Problem,
+    _decimate,
+    _problem_rmse,
+    _swarm_objective,
+    identify,
+)
 from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel
 from .._models.bouc_wen import PiezoBoucWen
@@ -21,7 +29,7 @@ from .._models.extended import ExtendedPiezo
 from .._params import ParameterSpace
 from .._recording import Recording
 from .._simulate import RK4, simulate
-from .._swarm import MPSO
+from .._swarm import MPSO, run_swarm
 from ._catalogue import CATALOGUE, EFFECT_NAMES
 from ._locate import describe, effective_samples, locate
 
@@ -115,10 +123,10 @@ def _active_parameters(model, effects) -> dict[str, float]:
 # ----------------------------------------------------------------- linear algebra
 
 
-def _jacobian(model, names, inputs, solver) -> np.ndarray:
+@eqx.filter_jit
+def _output_jacobian(model, names, inputs, solver):
     values = jnp.stack([jnp.asarray(getattr(model, n), float) for n in names])
 
-    @jax.jit
     def outputs(v):
         new = eqx.tree_at(
             lambda m: [getattr(m, n) for n in names],
@@ -127,7 +135,14 @@ def _jacobian(model, names, inputs, solver) -> np.ndarray:
         )
         return simulate(new, inputs, solver, throw=False)
 
-    return np.nan_to_num(np.asarray(jax.jacfwd(outputs)(values)))
+    return jax.jacfwd(outputs)(values)
+
+
+def _jacobian(model, names, inputs, solver) -> np.ndarray:
+    """d output / d parameter for `names` (one compilation per model structure)."""
+    return np.nan_to_num(
+        np.asarray(_output_jacobian(model, tuple(names), inputs, solver))
+    )
 
 
 def _dynamics_directions(predicted: np.ndarray, dt: float) -> np.ndarray:
@@ -194,6 +209,9 @@ def _bounds_around(model, names, natural_scales, fs, duration):
             bounds[name] = (2.0 / duration, 0.5 * fs)
         elif name == "damping_ratio":
             bounds[name] = (5e-3, 5.0)
+        elif name == "phi":
+            reach = min(0.05 * duration, 0.5)
+            bounds[name] = (value - reach, value + reach)
         elif name in natural_scales:
             scale = natural_scales[name]
             bounds[name] = (value - scale, value + scale)
@@ -205,38 +223,105 @@ def _bounds_around(model, names, natural_scales, fs, duration):
 
 
 def _solver_for(model: ExtendedPiezo, dt: float) -> RK4:
-    if not model.dynamic:
-        return RK4()
-    omega_dt = 2 * math.pi * float(model.natural_frequency) * dt
-    return RK4(substeps=int(min(16, max(1, math.ceil(omega_dt / 0.3)))))
+    """RK4 fine enough for any resonance the search allows (up to 0.45 x the sample
+    rate: omega*h <= 0.5), fixed per model structure so refits share a compilation."""
+    return RK4(substeps=6) if model.dynamic else RK4()
 
 
-def _damped_start(current, step, inputs, y, mask):
-    """The Gauss-Newton step of the score test, halved until it helps (a large
-    linearised step can leave the stable region)."""
-    base = float(
-        np.mean((y - np.asarray(simulate(current, inputs, throw=False)))[mask] ** 2)
-    )
-    for scale in (1.0, 0.5, 0.25, 0.125):
-        trial = current.replace(
+ALL_NAMES = tuple(n for n in ExtendedPiezo.parameter_names if n != "A1")
+STATIC_NAMES = tuple(
+    n for n in ALL_NAMES if n not in ("natural_frequency", "damping_ratio")
+)
+
+
+_simulate_jit = eqx.filter_jit(simulate)
+
+
+def _starting_points(effect, current, step, fs):
+    """Candidate starting models for an effect: the score test's Gauss-Newton step
+    at several lengths, plus a grid over the effect's physical scale where the
+    linearisation is known to be poor (time shifts, resonances)."""
+    if effect == "dynamics":
+        a1 = step.get("natural_frequency", 0.0)
+        a2 = step.get("damping_ratio", 0.0)
+        points = []
+        if a2 > 0 and a1 > 0:
+            omega = 1 / math.sqrt(a2)
+            zeta = min(2.0, max(0.01, a1 * omega / 2))
+            points.append((min(0.45 * fs, omega / (2 * math.pi)), zeta))
+        points += [(fs / d, z) for d in (40, 20, 10, 5, 2.5) for z in (0.05, 0.2, 0.5)]
+        return [current.with_dynamics(f, z) for f, z in points]
+    models = [
+        current.replace(
             **{p: float(getattr(current, p)) + scale * v for p, v in step.items()}
         )
-        pred = np.asarray(simulate(trial, inputs, throw=False))
-        if np.all(np.isfinite(pred)) and np.mean((y - pred)[mask] ** 2) < base:
-            return trial
-    return current
+        for scale in (0.25, 0.5, 1.0, 2.0, 4.0)
+    ]
+    if effect == "input_bias":
+        shifts = [s * 1e-3 for s in (0.5, 1, 2, 5, 10, 20, 50, 100)]
+        models += [current.replace(phi=sign * s) for s in shifts for sign in (1, -1)]
+    return models
+
+
+def _best_start(effect, current, step, inputs, y, mask, fs):
+    """The starting point with the lowest error on the fitted samples."""
+    best, best_mse = current, float("inf")
+    for trial in _starting_points(effect, current, step, fs):
+        pred = np.asarray(
+            _simulate_jit(trial, inputs, _solver_for(trial, 0.0), throw=False)
+        )
+        if not np.all(np.isfinite(pred)):
+            continue
+        mse = float(np.mean((y - pred)[mask] ** 2))
+        if mse < best_mse:
+            best, best_mse = trial, mse
+    return best, best_mse
 
 
 def _refit(
-    model, names, inputs, measured, weights, natural_scales, fs, duration, max_steps=60
+    model,
+    names,
+    inputs,
+    measured,
+    weights,
+    natural_scales,
+    fs,
+    duration,
+    max_steps=40,
+    key=None,
 ):
-    bounds, log = _bounds_around(model, names, natural_scales, fs, duration)
-    space = ParameterSpace(model, bounds, log_scale=log)
+    """Levenberg-Marquardt over `names` (the rest frozen) in one fixed space, on a
+    decimated copy when the model is quasi-static (its loss depends on turning
+    points, not on the sample rate). With a `key`, a short swarm over the same space
+    first looks for a better basin: a large effect can pull the base parameters far
+    from where the base fit left them."""
+    bounds, log = _bounds_around(model, ALL_NAMES, natural_scales, fs, duration)
+    frozen = [n for n in ALL_NAMES if n not in names]
+    space = ParameterSpace(model, bounds, log_scale=log, frozen=frozen)
     solver = _solver_for(model, float(inputs.dt))
     problem = Problem(space, inputs, measured, solver, weights)
-    result = LevenbergMarquardtPolish(max_steps=max_steps).run(
-        problem, space.from_model(model)
-    )
+    stride = max(1, int(fs // (500 if model.dynamic else 250)))
+    if stride > 1 and inputs.num_samples > 20 * stride:
+        problem = _decimate(problem, stride)
+    z0 = space.from_model(model)
+    if key is not None and not model.dynamic:
+        coarse_stride = max(1, inputs.num_samples // 2000)
+        coarse = _decimate(problem, max(1, coarse_stride // stride))
+        swarm = run_swarm(
+            _swarm_objective,
+            jnp.zeros(space.dimension),
+            jnp.ones(space.dimension),
+            MPSO(num_particles=48, num_iterations=100),
+            key,
+            args=coarse,
+            chunk_size=20,
+            stall_iterations=20,
+        )
+        if float(_problem_rmse(problem, swarm.best_x)) < float(
+            _problem_rmse(problem, z0)
+        ):
+            z0 = swarm.best_x
+    result = LevenbergMarquardtPolish(max_steps=max_steps).run(problem, z0)
     return space.to_model(result.z)
 
 
@@ -323,7 +408,7 @@ def diagnose(
         )
         base = base_fit.model
     current = ExtendedPiezo.around(base, inputs)
-    predicted = np.asarray(simulate(current, inputs, throw=False))
+    predicted = np.asarray(_simulate_jit(current, inputs, throw=False))
     base_predicted = predicted
     baseline = error_metrics(y, predicted)
     location = locate(t, np.asarray(recording.u), y - predicted)
@@ -340,9 +425,15 @@ def diagnose(
         static_names = [
             p for e in remaining if e != "dynamics" for p in CATALOGUE[e].parameters
         ]
-        jac = _jacobian(current, free + static_names, inputs, solver)
-        base_cols = jac[:, : len(free)]
-        extra = {name: jac[:, len(free) + i] for i, name in enumerate(static_names)}
+        jac = _jacobian(current, STATIC_NAMES, inputs, solver)
+        column = {name: jac[:, i] for i, name in enumerate(STATIC_NAMES)}
+        if current.dynamic:
+            dyn = _jacobian(
+                current, ("natural_frequency", "damping_ratio"), inputs, solver
+            )
+            column["natural_frequency"], column["damping_ratio"] = dyn[:, 0], dyn[:, 1]
+        base_cols = np.stack([column[p] for p in free], axis=1)
+        extra = {name: column[name] for name in static_names}
         w = fit_mask.astype(float)
         projected = {}
         for effect in remaining:
@@ -389,9 +480,15 @@ def diagnose(
                 }
             )
         scored.sort(key=lambda c: -c["statistic"] / c["dof"])
-        candidates = [c for c in scored if c["significant"]][:3]
+        # The score test ranks and gates; every significant effect is then refitted
+        # from its best starting point, and held-out data decide.
+        candidates = [c for c in scored if c["significant"]]
+        for cand in candidates:
+            cand["start"], cand["start_mse"] = _best_start(
+                cand["effect"], current, cand["step"], inputs, y, fit_mask, fs
+            )
         round_summary = [
-            {k: v for k, v in c.items() if k not in ("directions", "step")}
+            {k: v for k, v in c.items() if k not in ("directions", "step", "start")}
             for c in scored
         ]
         rounds.append(round_summary)
@@ -399,29 +496,26 @@ def diagnose(
             break
         natural = {}
         rms_y = float(np.sqrt(np.mean(y**2)))
-        for p, col in extra.items():
+        for p, col in column.items():
             norm = float(np.sqrt(np.mean(col**2)))
             natural[p] = rms_y / norm if norm > 0 else 1.0
         results = []
         for cand in candidates:
             effect = cand["effect"]
-            trial = current
-            if effect == "dynamics":
-                a1 = cand["step"].get("natural_frequency", 0.0)
-                a2 = cand["step"].get("damping_ratio", 0.0)
-                if a2 > 0 and a1 > 0:
-                    omega = 1 / math.sqrt(a2)
-                    zeta = min(2.0, max(0.01, a1 * omega / 2))
-                    fn = min(0.45 * fs, omega / (2 * math.pi))
-                else:
-                    fn, zeta = 0.1 * fs, 0.3
-                trial = current.with_dynamics(fn, zeta)
-            else:
-                trial = _damped_start(current, cand["step"], inputs, y, fit_mask)
+            trial = cand["start"]
             names = free + list(CATALOGUE[effect].parameters)
             try:
                 refit = _refit(
-                    trial, names, inputs, measured, weights, natural, fs, duration
+                    trial,
+                    names,
+                    inputs,
+                    measured,
+                    weights,
+                    natural,
+                    fs,
+                    duration,
+                    max_steps=20,
+                    key=jax.random.fold_in(key, 1000 * len(findings) + len(results)),
                 )
             except Exception as error:  # a failed candidate is just rejected
                 for entry in round_summary:
@@ -429,7 +523,7 @@ def diagnose(
                         entry["refit_error"] = str(error).splitlines()[0][:200]
                 continue
             new_pred = np.asarray(
-                simulate(
+                _simulate_jit(
                     refit, inputs, _solver_for(refit, float(inputs.dt)), throw=False
                 )
             )
@@ -527,9 +621,19 @@ def diagnose(
                 winner["validation"],
             )
         )
-        current = winner["model"]
-        predicted = winner["predicted"]
         free = free + [p for p in CATALOGUE[effect].parameters if p not in free]
+        # Converge the adopted model before looking for more: an under-fitted
+        # winner leaves structure that would pass for a further effect.
+        current = _refit(
+            winner["model"], free, inputs, measured, weights, natural, fs, duration
+        )
+        predicted = np.asarray(
+            _simulate_jit(current, inputs, _solver_for(current, 0.0), throw=False)
+        )
+        if not np.all(np.isfinite(predicted)) or _mse(y - predicted, fit_mask) > _mse(
+            y - winner["predicted"], fit_mask
+        ):
+            current, predicted = winner["model"], winner["predicted"]
 
     final_model = current
     if findings:
@@ -537,7 +641,7 @@ def diagnose(
             current, free, inputs, measured, None, {}, fs, duration, max_steps=30
         )
         final_pred = np.asarray(
-            simulate(
+            _simulate_jit(
                 final_model,
                 inputs,
                 _solver_for(final_model, float(inputs.dt)),

@@ -17,10 +17,19 @@ from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing
 
 
+def as_parameter(value: ArrayLike) -> Array:
+    """A parameter value as a strongly typed JAX array. Python scalars would give
+    weakly typed arrays, and a weak/strong mismatch between calls recompiles."""
+    array = jnp.asarray(value)
+    if not jnp.issubdtype(array.dtype, jnp.inexact):
+        array = array.astype(jnp.result_type(float))
+    return jnp.asarray(array, dtype=array.dtype)
+
+
 def parameter_field(**kwargs):
     """A model parameter: stored as a JAX array so that changing its value never
     triggers recompilation."""
-    return eqx.field(converter=jnp.asarray, **kwargs)
+    return eqx.field(converter=as_parameter, **kwargs)
 
 
 class Drive(eqx.Module):
@@ -86,7 +95,7 @@ class AbstractHysteresisModel(eqx.Module):
         return eqx.tree_at(
             lambda m: [getattr(m, name) for name in names],
             self,
-            [jnp.asarray(values[name]) for name in names],
+            [as_parameter(values[name]) for name in names],
         )
 
     def astype(self, dtype) -> "AbstractHysteresisModel":

@@ -60,7 +60,9 @@ class ExtendedPiezo(AbstractHysteresisModel):
     rate_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
     time_center: Float[Array, ""] = parameter_field(default=0.0, kw_only=True)
     time_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
-    creep_times: tuple[float, float] = eqx.field(default=(0.3, 3.0), static=True, kw_only=True)
+    creep_times: tuple[float, float] = eqx.field(
+        default=(0.3, 3.0), static=True, kw_only=True
+    )
     dynamic: bool = eqx.field(default=False, static=True, kw_only=True)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
 
