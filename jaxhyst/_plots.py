@@ -237,3 +237,212 @@ def plot_error_trend(
     axis.set_ylabel(ylabel)
     axis.set_title(title)
     return _save(figure, target)
+
+
+def _binned_mean(
+    x: np.ndarray, y: np.ndarray, bins: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean of `y` in `bins` equal-width bins of `x` (empty bins dropped): the
+    systematic part of a noisy residual, which the raw points hide."""
+    if x.size == 0:
+        return x, y
+    edges = np.linspace(np.min(x), np.max(x), bins + 1)
+    index = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, bins - 1)
+    counts = np.bincount(index, minlength=bins)
+    sums = np.bincount(index, weights=y, minlength=bins)
+    keep = counts >= 3
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    return centres[keep], sums[keep] / counts[keep]
+
+
+def plot_residual_scatter(
+    path: str | os.PathLike,
+    x: ArrayLike,
+    panels: Mapping[str, ArrayLike],
+    *,
+    groups: Mapping[str, ArrayLike] | None = None,
+    xlabel: str,
+    ylabel: str,
+    title: str,
+    scale: float = 1.0,
+    bins: int = 40,
+    logx: bool = False,
+    overwrite: bool = False,
+) -> Path:
+    """Residuals against a variable `x` (input, rate, ...): one panel per entry of
+    `panels` ({title: residual}, e.g. before and after a refit), on shared axes.
+
+    `groups` ({label: boolean mask}) splits the samples, e.g. into the ascending and
+    descending branches; without it all samples form one group. Each group is drawn
+    as faint points plus its binned mean (`bins` bins of x) as a bold line, so a
+    systematic residual of a few noise sigmas stands out. `scale` multiplies the
+    residuals; `logx=True` uses a logarithmic x-axis (non-positive x dropped).
+
+    Writes a PNG to `path` and returns it.
+    """
+    owner = "plot_residual_scatter"
+    target = _target(path, overwrite, owner)
+    xs = _vector(x, "x", owner)
+    series = _curves(panels, xs.shape[0], owner, scale)
+    if groups is None:
+        masks = [("", np.ones(xs.shape[0], bool))]
+    else:
+        masks = []
+        for label, mask in groups.items():
+            array = np.asarray(mask, bool)
+            if array.shape != xs.shape:
+                raise ValueError(
+                    f"{owner}: group {label!r} has shape {array.shape} but x has "
+                    f"{xs.shape}; pass one boolean per sample."
+                )
+            masks.append((str(label), array))
+    figure, axes = _figure(
+        len(series), height=2.0 + 2.6 * len(series), sharex=True
+    )
+    limit = max(float(np.max(np.abs(values))) for _, values in series) or 1.0
+    for axis, (name, values) in zip(axes, series):
+        for index, (label, mask) in enumerate(masks):
+            keep = mask & (xs > 0) if logx else mask
+            if not keep.any():
+                continue
+            color = f"C{index}"
+            axis.scatter(
+                xs[keep],
+                values[keep],
+                s=1.5,
+                alpha=0.15,
+                color=color,
+                linewidths=0,
+                rasterized=True,
+            )
+            if logx:
+                cx, cy = _binned_mean(np.log10(xs[keep]), values[keep], bins)
+                cx = 10.0**cx
+            else:
+                cx, cy = _binned_mean(xs[keep], values[keep], bins)
+            axis.plot(
+                cx,
+                cy,
+                color=color,
+                linewidth=2.0,
+                label=f"{label + ': ' if label else ''}binned mean",
+            )
+        axis.axhline(0.0, color="0.4", linewidth=0.8)
+        axis.set_ylim(-1.05 * limit, 1.05 * limit)
+        axis.grid(True, alpha=0.3)
+        axis.set_ylabel(ylabel)
+        axis.set_title(name, fontsize="medium")
+        axis.legend(loc="upper right", fontsize="small")
+        if logx:
+            axis.set_xscale("log")
+    axes[-1].set_xlabel(xlabel)
+    figure.suptitle(title)
+    return _save(figure, target)
+
+
+def plot_residual_time(
+    path: str | os.PathLike,
+    t: ArrayLike,
+    u: ArrayLike,
+    residuals: Mapping[str, ArrayLike],
+    *,
+    ulabel: str = "input u",
+    ylabel: str = "residual y - yhat",
+    tlabel: str = "time t [s]",
+    title: str = "",
+    scale: float = 1.0,
+    window: int = 1,
+    overwrite: bool = False,
+) -> Path:
+    """Residuals against time under the input: `u(t)` on top, then one panel per
+    entry of `residuals` ({label: y - yhat}) with the raw residual faint and its
+    centred moving average over `window` samples bold (the systematic part).
+
+    Writes a PNG to `path` and returns it.
+    """
+    owner = "plot_residual_time"
+    target = _target(path, overwrite, owner)
+    time = _vector(t, "t", owner)
+    inputs = _vector(u, "u", owner, time.shape[0])
+    series = _curves(residuals, time.shape[0], owner, scale)
+    figure, axes = _figure(
+        1 + len(series), height=2.2 + 2.2 * len(series), sharex=True
+    )
+    top = axes[0]
+    top.plot(time, inputs, color="0.3", linewidth=1.3)
+    top.grid(True, alpha=0.3)
+    top.set_ylabel(ulabel)
+    if title:
+        top.set_title(title)
+    limit = max(float(np.max(np.abs(values))) for _, values in series) or 1.0
+    width = max(1, int(window))
+    for index, (axis, (label, values)) in enumerate(zip(axes[1:], series)):
+        color = f"C{index}"
+        axis.plot(time, values, color=color, linewidth=0.5, alpha=0.35)
+        if width > 1:
+            smooth = np.convolve(values, np.ones(width) / width, mode="same")
+            axis.plot(
+                time,
+                smooth,
+                color=color,
+                linewidth=1.8,
+                label=f"{label}: {width}-sample moving average",
+            )
+            axis.legend(loc="upper right", fontsize="small")
+        else:
+            axis.set_title(label, fontsize="medium")
+        axis.axhline(0.0, color="0.4", linewidth=0.8)
+        axis.set_ylim(-1.05 * limit, 1.05 * limit)
+        axis.grid(True, alpha=0.3)
+        axis.set_ylabel(ylabel)
+    axes[-1].set_xlabel(tlabel)
+    return _save(figure, target)
+
+
+def plot_spectrum(
+    path: str | os.PathLike,
+    sample_rate: float,
+    series: Mapping[str, ArrayLike],
+    *,
+    ylabel: str = "amplitude spectral density",
+    title: str = "Spectrum",
+    scale: float = 1.0,
+    overwrite: bool = False,
+) -> Path:
+    """Amplitude spectral density (Welch, Hann windows) of every entry of `series`
+    ({label: values sampled at `sample_rate` Hz}) on log-log axes; `scale` multiplies
+    the values first. White noise is a flat floor; structure a model leaves out shows
+    as peaks or a rise above it.
+
+    Writes a PNG to `path` and returns it.
+    """
+    from scipy.signal import welch
+
+    owner = "plot_spectrum"
+    target = _target(path, overwrite, owner)
+    rate = float(sample_rate)
+    if not (np.isfinite(rate) and rate > 0):
+        raise ValueError(f"{owner}: sample_rate must be positive, got {sample_rate!r}.")
+    if not isinstance(series, Mapping) or not series:
+        raise ValueError(f"{owner}: series must be a non-empty dict {{label: values}}.")
+    lines = []
+    for label, values in series.items():
+        array = scale * _vector(values, f"series {label!r}", owner)
+        segment = min(array.shape[0], 4096)
+        freqs, power = welch(array - array.mean(), fs=rate, nperseg=segment)
+        lines.append((str(label), freqs[1:], np.sqrt(power[1:])))
+    figure, (axis,) = _figure()
+    for index, (label, freqs, amplitude) in enumerate(lines):
+        axis.loglog(
+            freqs,
+            amplitude,
+            linestyle=_STYLES[min(index, len(_STYLES) - 1)],
+            linewidth=1.4,
+            label=label,
+        )
+    axis.grid(True, which="both", alpha=0.3)
+    axis.set_xlabel("frequency [Hz]")
+    axis.set_ylabel(ylabel)
+    axis.set_title(title)
+    axis.legend(loc="best", fontsize="small")
+    return _save(figure, target)

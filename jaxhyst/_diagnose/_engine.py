@@ -321,8 +321,39 @@ def _refit(
             _problem_rmse(problem, z0)
         ):
             z0 = swarm.best_x
-    result = LevenbergMarquardtPolish(max_steps=max_steps).run(problem, z0)
-    return space.to_model(result.z)
+    active = _ActiveProblem.build(problem, z0, [ALL_NAMES.index(n) for n in names])
+    result = LevenbergMarquardtPolish(max_steps=max_steps).run(active, active.start())
+    return space.to_model(active.full(result.z))
+
+
+class _ActiveProblem(eqx.Module):
+    """A `Problem` seen through its free coordinates only, padded to a few fixed
+    sizes: the Jacobian then costs one tangent per free parameter (not per parameter
+    of the space), and fits over different free sets share a compilation."""
+
+    problem: Problem
+    base: jax.Array
+    index: jax.Array
+
+    @classmethod
+    def build(cls, problem, z0, free_index):
+        size = next(k for k in (8, 11, 14, len(ALL_NAMES)) if k >= len(free_index))
+        padding = [len(ALL_NAMES)] * (size - len(free_index))
+        return cls(problem, jnp.asarray(z0), jnp.asarray(list(free_index) + padding))
+
+    def full(self, z):
+        extended = jnp.concatenate([self.base, jnp.zeros(1, self.base.dtype)])
+        return extended.at[self.index].set(z)[:-1]
+
+    def start(self):
+        extended = jnp.concatenate([self.base, jnp.zeros(1, self.base.dtype)])
+        return extended[self.index]
+
+    def residuals(self, z):
+        return self.problem.residuals(self.full(z))
+
+    def rmse(self, z):
+        return self.problem.rmse(self.full(z))
 
 
 def _holdout_blocks(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
@@ -541,9 +572,11 @@ def diagnose(
             n_eff_hold = neff_ratio * hold_mask.sum()
             n_eff_fit = neff_ratio * fit_mask.sum()
             change = np.sqrt(np.mean((new_pred - predicted)[hold_mask] ** 2))
-            # The held-out MSE drop must beat its own noise, ~2*sigma*rms(change)/sqrt(N_eff).
+            # The held-out MSE drop must beat its own noise, ~2*sigma*rms(change)/sqrt(N_eff),
+            # and be worth having (5 % of the MSE): small gains are spurious effects
+            # soaking up what an adopted effect's form does not quite capture.
             margin = max(
-                0.005 * before_hold, 3 * 2 * noise_sd * change / math.sqrt(n_eff_hold)
+                0.05 * before_hold, 3 * 2 * noise_sd * change / math.sqrt(n_eff_hold)
             )
             p = len(CATALOGUE[effect].parameters)
             bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(

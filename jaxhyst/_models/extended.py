@@ -25,8 +25,10 @@ class ExtendedPiezo(AbstractHysteresisModel):
                        y += quad*((u - input_center)/input_scale)^2
     - input_bias:      the hysteresis sees V(t) = u(t + phi)
     - rate_dependence: hdot *= 1 + rate_gain*|udot|/rate_scale;  y += viscous*udot/rate_scale
-    - creep:           y += creep_fast*(c1 - u) + creep_slow*(c2 - u),
-                       ci' = (u - ci)/tau_i with tau = creep_times
+    - creep:           y += creep_fast*(c1 - u) + creep_slow*(c2 - u)
+                            + creep_slower*(c3 - u),
+                       ci' = (u - ci)/tau_i with tau = creep_times (0.3, 3, 30 s:
+                       logarithmic creep spans decades)
     - drift:           y += offset + trend*s + curvature*(s^2 - 1/3),
                        s = (t - time_center)/time_scale in [-1, 1]
     - dynamics:        with `dynamic=True`, y is the static response seen through
@@ -34,7 +36,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
                        natural_frequency, zeta = damping_ratio)
 
     The *_center/*_scale fields normalise the effects to the recording and are not
-    fitted. State: (h, c1, c2, y_dyn, yd_dyn).
+    fitted. State: (h, c1, c2, c3, y_dyn, yd_dyn).
     """
 
     k1: Float[Array, ""] = parameter_field()
@@ -50,6 +52,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
     viscous: Float[Array, ""] = parameter_field(default=0.0)
     creep_fast: Float[Array, ""] = parameter_field(default=0.0)
     creep_slow: Float[Array, ""] = parameter_field(default=0.0)
+    creep_slower: Float[Array, ""] = parameter_field(default=0.0)
     offset: Float[Array, ""] = parameter_field(default=0.0)
     trend: Float[Array, ""] = parameter_field(default=0.0)
     curvature: Float[Array, ""] = parameter_field(default=0.0)
@@ -60,8 +63,8 @@ class ExtendedPiezo(AbstractHysteresisModel):
     rate_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
     time_center: Float[Array, ""] = parameter_field(default=0.0, kw_only=True)
     time_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
-    creep_times: tuple[float, float] = eqx.field(
-        default=(0.3, 3.0), static=True, kw_only=True
+    creep_times: tuple[float, float, float] = eqx.field(
+        default=(0.3, 3.0, 30.0), static=True, kw_only=True
     )
     dynamic: bool = eqx.field(default=False, static=True, kw_only=True)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
@@ -80,13 +83,14 @@ class ExtendedPiezo(AbstractHysteresisModel):
         "viscous",
         "creep_fast",
         "creep_slow",
+        "creep_slower",
         "offset",
         "trend",
         "curvature",
         "natural_frequency",
         "damping_ratio",
     )
-    state_size: ClassVar[int] = 5
+    state_size: ClassVar[int] = 6
 
     @classmethod
     def around(
@@ -129,7 +133,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
         return ShiftedDrive(u, udot, v, vdot)
 
     def _static_output(self, t, state, drive):
-        h, c_fast, c_slow = state[0], state[1], state[2]
+        h, c_fast, c_slow, c_slower = state[0], state[1], state[2], state[3]
         u = drive.u
         centred = (u - self.input_center) / self.input_scale
         return (
@@ -139,6 +143,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
             + self.viscous * drive.udot / self.rate_scale
             + self.creep_fast * (c_fast - u)
             + self.creep_slow * (c_slow - u)
+            + self.creep_slower * (c_slower - u)
         )
 
     def _drift(self, t):
@@ -152,22 +157,22 @@ class ExtendedPiezo(AbstractHysteresisModel):
             s, h, drive.vdot, self.A1, self.beta1, self.gamma1, self.n
         ) * (1 + self.rate_gain * s.abs(drive.udot) / self.rate_scale)
         hdot = hdot + self.eps * drive.u * s.sign(drive.udot)
-        tau_fast, tau_slow = self.creep_times
-        c_fast_dot = (drive.u - state[1]) / tau_fast
-        c_slow_dot = (drive.u - state[2]) / tau_slow
+        creep_rates = [
+            (drive.u - state[1 + i]) / tau for i, tau in enumerate(self.creep_times)
+        ]
         if self.dynamic:
             omega = 2 * jnp.pi * self.natural_frequency
             target = self._static_output(t, state, drive)
-            y, yd = state[3], state[4]
+            y, yd = state[4], state[5]
             ydd = omega**2 * (target - y) - 2 * self.damping_ratio * omega * yd
         else:
             yd = jnp.zeros_like(h)
             ydd = jnp.zeros_like(h)
-        return jnp.stack([hdot, c_fast_dot, c_slow_dot, yd, ydd])
+        return jnp.stack([hdot, *creep_rates, yd, ydd])
 
     def output(self, t, state, drive):
         if self.dynamic:
-            response = state[3]
+            response = state[4]
         else:
             response = self._static_output(t, state, drive)
         return response + self._drift(t)
@@ -175,7 +180,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
     def initial_state(self, drive):
         u = jnp.asarray(drive.u)
         zero = jnp.zeros_like(u)
-        state = jnp.stack([zero, u, u, zero, zero])
+        state = jnp.stack([zero, u, u, u, zero, zero])
         if self.dynamic:
-            state = state.at[3].set(self._static_output(0.0, state, drive))
+            state = state.at[4].set(self._static_output(0.0, state, drive))
         return state

@@ -1,0 +1,86 @@
+import jax
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+
+
+def _case(effects, seed=0, noise="white", duration=10.0, rate=500.0, size=8.0):
+    return jh.concealed_recording(
+        effects,
+        key=jax.random.key(seed),
+        duration=duration,
+        rate=rate,
+        noise=noise,
+        size_sigmas=size,
+    )
+
+
+def test_catalogue_names_are_stable_and_nested():
+    assert jh.EFFECT_NAMES == (
+        "asymmetry",
+        "input_bias",
+        "rate_dependence",
+        "creep",
+        "dynamics",
+        "drift",
+    )
+    # Every effect's parameters exist on the extended model and default to "off".
+    base = jh.PiezoBoucWen(1.0, 0.3, -1.0, 0.002, -0.001, 1.5)
+    path = jh.sample(jh.paper_u1(), 100.0)
+    extended = jh.ExtendedPiezo.around(base, path)
+    np.testing.assert_allclose(
+        jh.simulate(extended, path), jh.simulate(base, path), rtol=0, atol=1e-12
+    )
+    for effect in jh.CATALOGUE.values():
+        for name in effect.parameters:
+            assert name in jh.ExtendedPiezo.parameter_names
+
+
+def test_locate_finds_branch_and_trend():
+    t = np.linspace(0, 10, 5001)
+    u = 50 * (1 - np.cos(2 * np.pi * 0.5 * t))
+    udot = np.gradient(u, t)
+    branch = np.where(udot > 0, 1.0, -1.0)
+    where = jh.locate(t, u, branch)
+    assert where["ascending"]["mean"] > 0.9 and where["descending"]["mean"] < -0.9
+    trend = jh.locate(t, u, 0.1 * t)
+    assert trend["slow_trend_rms"] > 0.9 * trend["overall_rms"]
+
+
+def test_clean_recording_flags_nothing():
+    case = _case((), seed=1)
+    diagnosis = jh.diagnose(case.recording, key=jax.random.key(0))
+    assert diagnosis.findings == []
+    assert diagnosis.final_rmse < 1.1 * case.sigma
+    report = diagnosis.to_dict()
+    for key in ("recording", "samples", "model", "noise", "baseline", "findings"):
+        assert key in report
+    assert report["final"]["model"] == "piezo" and report["ambiguities"] == []
+
+
+@pytest.mark.slow
+def test_clean_coloured_noise_flags_nothing():
+    case = _case((), seed=2, noise="coloured")
+    diagnosis = jh.diagnose(case.recording, key=jax.random.key(0))
+    assert diagnosis.findings == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect", ["asymmetry", "creep", "drift"])
+def test_concealed_effect_is_named_and_fixed(effect):
+    case = _case((effect,), seed=3)
+    diagnosis = jh.diagnose(case.recording, key=jax.random.key(0))
+    assert diagnosis.effects == (effect,)
+    assert diagnosis.final_rmse < 1.3 * case.sigma
+    finding = diagnosis.findings[0]
+    assert finding.after["rmse"] < finding.before["rmse"]
+    assert finding.validation["accepted"]
+
+
+def test_diagnose_rejects_bad_input():
+    with pytest.raises(TypeError, match="Recording"):
+        jh.diagnose(np.zeros(10), key=jax.random.key(0))  # type: ignore[arg-type]
+    case = _case((), duration=2.0, rate=100.0)
+    with pytest.raises(ValueError, match="holdout_fraction"):
+        jh.diagnose(case.recording, key=jax.random.key(0), holdout_fraction=0.9)
