@@ -2,6 +2,16 @@
 
 import importlib.metadata
 
+from ._benchmark_fit import (
+    PeriodicAverage as PeriodicAverage,
+    PeriodicSimulation as PeriodicSimulation,
+    average_periods as average_periods,
+    bandlimited_upsample as bandlimited_upsample,
+    fit_periodic as fit_periodic,
+    oscillator_space as oscillator_space,
+    periodic_identifiability as periodic_identifiability,
+    periodic_problem as periodic_problem,
+)
 from ._datasets import (
     BoucWenBenchmark as BoucWenBenchmark,
     default_data_dir as default_data_dir,

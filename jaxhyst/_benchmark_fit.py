@@ -167,17 +167,21 @@ class PeriodicSimulation(eqx.Module):
                 f"PeriodicSimulation: warmup must be >= 0 seconds, got {self.warmup}."
             )
 
-    def warmup_samples(self, dt: float, period: int) -> int:
-        """Warm-up length in original samples (at most one period: the input repeats)."""
-        return min(period, int(math.ceil(self.warmup / dt - 1e-9)))
+    def warmup_samples(self, dt: float) -> int:
+        """Warm-up length in original samples."""
+        return int(math.ceil(self.warmup / dt - 1e-9))
 
     def path(self, u_period: Float[ArrayLike, " n"], dt: float) -> InputPath:
-        """The fine-grid input path: warm-up, then the period plus one sample (the
-        start of the next period closes the last interval)."""
+        """The fine-grid input path: warm-up (the periodic input continued backwards,
+        over as many periods as it takes), then the period plus one sample (the start
+        of the next period closes the last interval)."""
         u = np.asarray(u_period, dtype=float)
         fine = bandlimited_upsample(u, self.upsample)
-        warm = self.warmup_samples(dt, u.size) * self.upsample
-        values = np.concatenate([fine[fine.size - warm :], fine, fine[:1]])
+        warm = self.warmup_samples(dt) * self.upsample
+        repeats = -(-warm // fine.size) + 1  # ceil, plus the scored period
+        values = np.concatenate(
+            [np.tile(fine, repeats)[fine.size * repeats - warm - fine.size :], fine[:1]]
+        )
         return InputPath(
             -warm * dt / self.upsample,
             dt / self.upsample,
@@ -224,9 +228,7 @@ def periodic_problem(
     n = period.num_samples
     count = n if samples is None else int(samples)
     if not 2 <= count <= n:
-        raise ValueError(
-            f"periodic_problem: samples={samples!r} must lie in [2, {n}]."
-        )
+        raise ValueError(f"periodic_problem: samples={samples!r} must lie in [2, {n}].")
     path = simulation.path(period.u, period.dt)
     keep = path.num_samples - (n - count) * simulation.upsample
     path = InputPath(
@@ -304,7 +306,9 @@ def periodic_identifiability(
         )
         return simulation.output(new, path, n)
 
-    jac = np.nan_to_num(np.asarray(jax.jit(jax.jacfwd(outputs))(jnp.zeros_like(values))))
+    jac = np.nan_to_num(
+        np.asarray(jax.jit(jax.jacfwd(outputs))(jnp.zeros_like(values)))
+    )
     norm = np.linalg.norm(jac, axis=0)
     safe = np.where(norm > 0, norm, 1.0)
     _, sv, vt = np.linalg.svd(jac / safe, full_matrices=False)
@@ -403,7 +407,9 @@ def fit_periodic(
     seeds = []
     swarm_result = None
     if swarm is not None:
-        short = periodic_problem(space, period, coarse_simulation, samples=swarm_samples)
+        short = periodic_problem(
+            space, period, coarse_simulation, samples=swarm_samples
+        )
         swarm_result = run_swarm(
             _swarm_objective,
             jnp.zeros(space.dimension),

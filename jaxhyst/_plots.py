@@ -255,6 +255,13 @@ def _binned_mean(
     return centres[keep], sums[keep] / counts[keep]
 
 
+def _robust_limit(series: list[tuple[str, np.ndarray]]) -> float:
+    """A symmetric y-limit that holds 99.5 % of every series (a few outliers may
+    be clipped), so that the systematic part is not squashed by rare spikes."""
+    limit = max(float(np.quantile(np.abs(values), 0.995)) for _, values in series)
+    return 1.15 * limit if limit > 0 else 1.0
+
+
 def plot_residual_scatter(
     path: str | os.PathLike,
     x: ArrayLike,
@@ -296,10 +303,8 @@ def plot_residual_scatter(
                     f"{xs.shape}; pass one boolean per sample."
                 )
             masks.append((str(label), array))
-    figure, axes = _figure(
-        len(series), height=2.0 + 2.6 * len(series), sharex=True
-    )
-    limit = max(float(np.max(np.abs(values))) for _, values in series) or 1.0
+    figure, axes = _figure(len(series), height=2.0 + 2.6 * len(series), sharex=True)
+    limit = _robust_limit(series)
     for axis, (name, values) in zip(axes, series):
         for index, (label, mask) in enumerate(masks):
             keep = mask & (xs > 0) if logx else mask
@@ -309,8 +314,8 @@ def plot_residual_scatter(
             axis.scatter(
                 xs[keep],
                 values[keep],
-                s=1.5,
-                alpha=0.15,
+                s=2.0,
+                alpha=0.25,
                 color=color,
                 linewidths=0,
                 rasterized=True,
@@ -328,7 +333,7 @@ def plot_residual_scatter(
                 label=f"{label + ': ' if label else ''}binned mean",
             )
         axis.axhline(0.0, color="0.4", linewidth=0.8)
-        axis.set_ylim(-1.05 * limit, 1.05 * limit)
+        axis.set_ylim(-limit, limit)
         axis.grid(True, alpha=0.3)
         axis.set_ylabel(ylabel)
         axis.set_title(name, fontsize="medium")
@@ -351,12 +356,14 @@ def plot_residual_time(
     tlabel: str = "time t [s]",
     title: str = "",
     scale: float = 1.0,
-    window: int = 1,
+    window: float = 0.0,
     overwrite: bool = False,
 ) -> Path:
     """Residuals against time under the input: `u(t)` on top, then one panel per
-    entry of `residuals` ({label: y - yhat}) with the raw residual faint and its
-    centred moving average over `window` samples bold (the systematic part).
+    entry of `residuals` ({label: y - yhat}) with the raw residual faint and, when
+    `window` (in the units of `t`) spans several samples, its centred moving average
+    bold (the systematic part). `scale` multiplies the residuals; the y-axis holds
+    99.5 % of the samples.
 
     Writes a PNG to `path` and returns it.
     """
@@ -365,17 +372,16 @@ def plot_residual_time(
     time = _vector(t, "t", owner)
     inputs = _vector(u, "u", owner, time.shape[0])
     series = _curves(residuals, time.shape[0], owner, scale)
-    figure, axes = _figure(
-        1 + len(series), height=2.2 + 2.2 * len(series), sharex=True
-    )
+    figure, axes = _figure(1 + len(series), height=2.2 + 2.2 * len(series), sharex=True)
     top = axes[0]
     top.plot(time, inputs, color="0.3", linewidth=1.3)
     top.grid(True, alpha=0.3)
     top.set_ylabel(ulabel)
     if title:
         top.set_title(title)
-    limit = max(float(np.max(np.abs(values))) for _, values in series) or 1.0
-    width = max(1, int(window))
+    limit = _robust_limit(series)
+    step = float(time[1] - time[0]) if time.shape[0] > 1 else 1.0
+    width = max(1, min(int(round(window / step)), time.shape[0] // 5))
     for index, (axis, (label, values)) in enumerate(zip(axes[1:], series)):
         color = f"C{index}"
         axis.plot(time, values, color=color, linewidth=0.5, alpha=0.35)
@@ -386,17 +392,38 @@ def plot_residual_time(
                 smooth,
                 color=color,
                 linewidth=1.8,
-                label=f"{label}: {width}-sample moving average",
+                label=f"moving average over {width * step:.3g}",
             )
             axis.legend(loc="upper right", fontsize="small")
-        else:
-            axis.set_title(label, fontsize="medium")
+        axis.set_title(label, fontsize="medium")
         axis.axhline(0.0, color="0.4", linewidth=0.8)
-        axis.set_ylim(-1.05 * limit, 1.05 * limit)
+        axis.set_ylim(-limit, limit)
         axis.grid(True, alpha=0.3)
         axis.set_ylabel(ylabel)
     axes[-1].set_xlabel(tlabel)
     return _save(figure, target)
+
+
+def _smoothed_spectrum(values: np.ndarray, rate: float, per_decade: int = 24):
+    """Amplitude spectral density (Hann-windowed periodogram) averaged over
+    log-spaced frequency bands, `per_decade` per decade: full resolution at the
+    lowest frequencies (the excitation's harmonics), a smooth noise floor above."""
+    x = values - values.mean()
+    window = np.hanning(x.shape[0])
+    spectrum = np.fft.rfft(x * window)
+    freqs = np.fft.rfftfreq(x.shape[0], 1.0 / rate)
+    density = 2.0 * np.abs(spectrum) ** 2 / (rate * np.sum(window**2))
+    freqs, density = freqs[1:], density[1:]
+    if freqs.size < 2:
+        return freqs, np.sqrt(density)
+    decades = np.log10(freqs[-1] / freqs[0])
+    edges = freqs[0] * np.logspace(0, decades, max(2, int(decades * per_decade)) + 1)
+    index = np.clip(np.searchsorted(edges, freqs, side="right") - 1, 0, None)
+    counts = np.bincount(index)
+    keep = counts > 0
+    centres = np.bincount(index, weights=freqs)[keep] / counts[keep]
+    power = np.bincount(index, weights=density)[keep] / counts[keep]
+    return centres, np.sqrt(power)
 
 
 def plot_spectrum(
@@ -409,15 +436,15 @@ def plot_spectrum(
     scale: float = 1.0,
     overwrite: bool = False,
 ) -> Path:
-    """Amplitude spectral density (Welch, Hann windows) of every entry of `series`
-    ({label: values sampled at `sample_rate` Hz}) on log-log axes; `scale` multiplies
-    the values first. White noise is a flat floor; structure a model leaves out shows
-    as peaks or a rise above it.
+    """Amplitude spectral density of every entry of `series` ({label: values
+    sampled at `sample_rate` Hz}) on log-log axes: a Hann-windowed periodogram
+    averaged over log-spaced bands (24 per decade), so the lowest frequencies keep
+    full resolution and the noise floor is smooth. `scale` multiplies the values
+    first. White noise is a flat floor; structure a model leaves out shows as peaks
+    or a rise above it.
 
     Writes a PNG to `path` and returns it.
     """
-    from scipy.signal import welch
-
     owner = "plot_spectrum"
     target = _target(path, overwrite, owner)
     rate = float(sample_rate)
@@ -428,9 +455,7 @@ def plot_spectrum(
     lines = []
     for label, values in series.items():
         array = scale * _vector(values, f"series {label!r}", owner)
-        segment = min(array.shape[0], 4096)
-        freqs, power = welch(array - array.mean(), fs=rate, nperseg=segment)
-        lines.append((str(label), freqs[1:], np.sqrt(power[1:])))
+        lines.append((str(label), *_smoothed_spectrum(array, rate)))
     figure, (axis,) = _figure()
     for index, (label, freqs, amplitude) in enumerate(lines):
         axis.loglog(
@@ -438,6 +463,7 @@ def plot_spectrum(
             amplitude,
             linestyle=_STYLES[min(index, len(_STYLES) - 1)],
             linewidth=1.4,
+            marker="." if freqs.size < 200 else None,
             label=label,
         )
     axis.grid(True, which="both", alpha=0.3)

@@ -68,8 +68,7 @@ CAPTIONS: dict[str, str] = {
     "loop": "Hysteresis loops before/after the diagnosis: measured vs the base "
     "model vs the final model with the adopted physics.",
     "time_history": "Time histories before/after: measured vs base vs final model.",
-    "error_trend": "Absolute error trends before (base model) and after (final "
-    "model).",
+    "error_trend": "Absolute error trends before (base model) and after (final model).",
     "residual_time": "Residual y - yhat against time under the input, before and "
     "after (faint: raw; bold: moving average).",
     "residual_input": "Residual against the input, split into the ascending and "
@@ -129,7 +128,7 @@ def write_json(data: Mapping[str, Any], path: str | os.PathLike, *, overwrite: b
     path = Path(path)
     text = json.dumps(jsonable(data), indent=2, allow_nan=False)
     _refuse_existing(path, overwrite, "write_json")
-    path.write_text(text + "\n")
+    path.write_text(text + "\n", encoding="utf-8")
     return path
 
 
@@ -298,9 +297,14 @@ def write_diagnosis_figures(
         scale=scale,
         overwrite=overwrite,
     )
-    residuals = {f"before: {before_name}": y - base, f"after: {after_name}": y - final}
+    if changed:
+        residuals = {
+            f"before: {before_name}": y - base,
+            f"after: {after_name}": y - final,
+        }
+    else:
+        residuals = {f"{before_name} (no physics added: final = base)": y - base}
     rlabel = f"residual y - yhat{_bracket(unit)}"
-    window = max(1, int(round(0.25 * recording.sample_rate)))
     plot_residual_time(
         paths["residual_time"],
         recording.t,
@@ -310,7 +314,7 @@ def write_diagnosis_figures(
         ylabel=rlabel,
         title=f"{recording.name}: residual over time",
         scale=scale,
-        window=min(window, max(1, recording.num_samples // 20)),
+        window=0.25,
         overwrite=overwrite,
     )
     speed, ascending, descending = _branches(recording)
@@ -604,7 +608,7 @@ def write_diagnosis_report(
         title=title,
         intro=intro,
     )
-    path.write_text(text)
+    path.write_text(text, encoding="utf-8")
     return path
 
 
@@ -639,9 +643,7 @@ def fit_summary(fit: Fit, recording: Recording) -> str:
         f"  MAE    {scale * m['mae']:.6g}{s}",
         f"  NRMSD  {m['nrmsd']:.6g}",
         "timing: "
-        + ", ".join(
-            f"{k.removesuffix('_s')} {v:.1f} s" for k, v in fit.timing.items()
-        ),
+        + ", ".join(f"{k.removesuffix('_s')} {v:.1f} s" for k, v in fit.timing.items()),
     ]
     return "\n".join(lines)
 
@@ -666,8 +668,7 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
         lines.append(f"findings ({len(diagnosis.findings)}):")
         for number, finding in enumerate(diagnosis.findings, start=1):
             lines += [
-                f"  {number}. {finding.effect}: "
-                f"{_parameters_text(finding.parameters)}",
+                f"  {number}. {finding.effect}: {_parameters_text(finding.parameters)}",
                 f"     evidence: {finding.evidence}",
                 f"     where: {finding.where}",
             ]

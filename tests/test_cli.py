@@ -1,5 +1,8 @@
 """The `jaxhyst` command line (run in-process through `main`) and the plot helpers."""
 
+import io
+import json
+import re
 import subprocess
 import sys
 
@@ -14,8 +17,12 @@ from jaxhyst._plots import plot_error_trend, plot_loop, plot_time_history
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-def _one_error_line(capsys) -> str:
-    err = capsys.readouterr().err
+def _one_error_line(capsys, *, quiet: bool = False) -> str:
+    """The one `jaxhyst: error:` line on stderr; `quiet`: and nothing on stdout."""
+    captured = capsys.readouterr()
+    if quiet:
+        assert captured.out == "", captured.out
+    err = captured.err
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
     assert lines[0].startswith("jaxhyst: error: "), err
@@ -255,3 +262,250 @@ def test_plots_check_their_inputs(tmp_path):
     assert (tmp_path / "taken.png").read_bytes() == b"mine"
     plot_time_history(tmp_path / "taken.png", u, u, {"y": u}, overwrite=True)
     assert (tmp_path / "taken.png").read_bytes().startswith(PNG_SIGNATURE)
+
+
+# ------------------------------------------------------------------- fit, diagnose
+
+# Small swarms keep these quick; the recording is 8 s of u1 at 250 Hz (2001 samples).
+QUICK = ["--particles", "16", "--iterations", "30"]
+FIT_KEYS = {"model", "parameters", "metrics", "identifiability", "timing"}
+METRIC_KEYS = {"rmse", "mad", "mrd", "mae", "nrmsd"}
+
+
+def _strict_json(path):
+    def refuse(constant):
+        raise AssertionError(f"{path} holds the non-standard JSON constant {constant}")
+
+    return json.loads(path.read_text(), parse_constant=refuse)
+
+
+@pytest.fixture(scope="module")
+def short_recording(tmp_path_factory):
+    """A clean synthetic piezo recording (noise 0.1 % of full scale) as CSV."""
+    truth = jh.PiezoBoucWen(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
+    path = jh.sample(jh.paper_u1(periods=0.8), 250.0)
+    y = np.asarray(jh.simulate(truth, path))
+    y = y + 1e-3 * np.max(np.abs(y)) * np.random.default_rng(0).standard_normal(y.size)
+    recording = jh.Recording(
+        np.asarray(path.times),
+        np.asarray(path.values),
+        y,
+        name="short",
+        input_unit="V",
+        output_unit="um",
+    )
+    file = tmp_path_factory.mktemp("recording") / "short.csv"
+    recording.save(file)
+    return file
+
+
+@pytest.fixture(scope="module")
+def fitted(short_recording, tmp_path_factory):
+    """One `jaxhyst fit` run: (exit status, stdout, output folder)."""
+    out = tmp_path_factory.mktemp("fit")
+    argv = ["fit", str(short_recording), "--json", str(out / "fit.json")]
+    argv += ["--plots", str(out / "figures"), *QUICK]
+    with pytest.MonkeyPatch.context() as patch:
+        stdout = io.StringIO()
+        patch.setattr(sys, "stdout", stdout)
+        status = main(argv)
+    return status, stdout.getvalue(), out
+
+
+def test_fit_writes_json_figures_and_summary(fitted):
+    status, stdout, out = fitted
+    assert status == 0
+    data = _strict_json(out / "fit.json")
+    assert FIT_KEYS <= set(data)
+    assert data["model"] == "PiezoBoucWen"
+    assert set(data["parameters"]) == {"k1", "k2", "A1", "beta1", "gamma1", "n"}
+    assert METRIC_KEYS <= set(data["metrics"])
+    assert data["timing"]["total_s"] > 0
+    assert data["metrics"]["nrmsd"] < 0.01  # a clean record fits well
+    assert "standard_errors" in data["identifiability"]
+    for name in ("fit_loop", "fit_time_history", "fit_error_trend"):
+        assert (out / "figures" / f"{name}.png").read_bytes().startswith(PNG_SIGNATURE)
+    for word in ("parameters:", "k1", "RMSE", "MAD", "MRD", "MAE", "NRMSD", "timing:"):
+        assert word in stdout
+    assert f"wrote {out / 'fit.json'}" in stdout
+
+
+def test_fit_refuses_to_overwrite_without_force(fitted, short_recording, capsys):
+    _, _, out = fitted
+    before = (out / "fit.json").read_text()
+    argv = ["fit", str(short_recording), "--json", str(out / "fit.json"), *QUICK]
+    assert main(argv) == 2
+    line = _one_error_line(capsys, quiet=True)  # refused before any computation
+    assert "fit.json" in line and "already exists" in line and "--force" in line
+    assert (out / "fit.json").read_text() == before
+    argv = ["fit", str(short_recording), "--plots", str(out / "figures"), *QUICK]
+    assert main(argv) == 2
+    assert "fit_loop.png" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize(
+    "content, options, expected",
+    [
+        ("t,u,z\n0,0,0\n1,1,1\n2,0,2\n", [], "'y'"),
+        ("t,u,y\n0,0,0\n1,nan,1\n2,0,2\n", [], "NaN"),
+        ("t,u,y\n0,0,0\n1,1,1\n1,0,2\n", [], "not strictly increasing"),
+        ("0,0,0\n1,1,1\n2,0,2\n", ["--no-header", "--time", "t"], "--no-header"),
+        (None, [], "does not exist"),
+    ],
+)
+@pytest.mark.parametrize("command", ["fit", "diagnose"])
+def test_bad_recordings_are_one_line_errors(
+    command, content, options, expected, tmp_path, capsys
+):
+    path = tmp_path / "recording.csv"
+    if content is not None:
+        path.write_text(content)
+    out = tmp_path / "out.json"
+    assert main([command, str(path), *options, "--json", str(out), *QUICK]) == 2
+    assert expected in _one_error_line(capsys)
+    assert not out.exists()
+
+
+def test_columns_by_index_without_header(tmp_path, short_recording, capsys):
+    recording = jh.Recording.load(short_recording)
+    path = tmp_path / "bare.txt"
+    np.savetxt(path, np.stack([recording.y, recording.t, recording.u], axis=1))
+    argv = ["fit", str(path), "--no-header", "--time", "1", "--input", "2"]
+    argv += ["--output", "0", *QUICK]
+    assert main(argv) == 0
+    assert "2001 samples at 250 Hz" in capsys.readouterr().out
+
+
+def test_fit_corrected_runs_the_two_stages(short_recording, tmp_path, capsys):
+    out = tmp_path / "corrected.json"
+    argv = ["fit", str(short_recording), "--model", "corrected", "--json", str(out)]
+    assert main([*argv, "--particles", "8", "--iterations", "10"]) == 0
+    data = _strict_json(out)
+    assert data["model"] == "CorrectedPiezoBoucWen"
+    assert {"phi", "eps"} <= set(data["parameters"])
+    assert [stage["model"] for stage in data["stages"]] == [
+        "PiezoBoucWen",
+        "CorrectedPiezoBoucWen",
+        "CorrectedPiezoBoucWen",
+    ]
+    assert data["stages"][2]["rmse"] <= data["stages"][0]["rmse"] * 1.0001
+    total = sum(stage["total_s"] for stage in data["stages"])
+    assert data["timing"]["total_s"] == pytest.approx(total)
+    assert "stages:" in capsys.readouterr().out
+
+
+def test_fit_preset_and_swarm_options(short_recording, capsys):
+    assert main(["fit", str(short_recording), "--preset", "case9"]) == 2
+    assert "invalid choice: 'case9'" in _one_error_line(capsys)
+    assert main(["fit", str(short_recording), "--particles", "1"]) == 2
+    assert "--particles" in _one_error_line(capsys)
+    assert main(["fit", "--help"]) == 0
+    text = capsys.readouterr().out
+    assert "case1" in text and "for quick runs" in text
+
+
+@pytest.fixture(scope="module")
+def diagnosed(short_recording, tmp_path_factory):
+    """One `jaxhyst diagnose` run with every output: (status, stdout, folder)."""
+    out = tmp_path_factory.mktemp("diagnose")
+    argv = ["diagnose", str(short_recording), "--json", str(out / "diagnosis.json")]
+    argv += ["--plots", str(out / "figures"), "--report", str(out / "report.md")]
+    with pytest.MonkeyPatch.context() as patch:
+        stdout = io.StringIO()
+        patch.setattr(sys, "stdout", stdout)
+        status = main([*argv, *QUICK])
+    return status, stdout.getvalue(), out
+
+
+def test_diagnose_clean_recording_writes_the_contract(diagnosed):
+    status, stdout, out = diagnosed
+    assert status == 0
+    data = _strict_json(out / "diagnosis.json")
+    assert data["recording"] == "short"
+    assert data["samples"] == 2001
+    assert data["model"] == "piezo"
+    assert data["noise"]["sigma"] > 0
+    assert {"rmse", "nrmsd", "mad", "mae"} <= set(data["baseline"])
+    assert isinstance(data["findings"], list)
+    assert {"model", "rmse", "parameters"} <= set(data["final"])
+    assert data["final"]["model"].startswith("piezo")
+    assert isinstance(data["ambiguities"], list)
+    assert data["findings"] == []  # a clean record: nothing may be flagged
+    assert "findings: none" in stdout and "base model: piezo, RMSE" in stdout
+    assert f"wrote {out / 'report.md'}" in stdout
+
+
+def test_diagnose_report_and_figures(diagnosed):
+    _, _, out = diagnosed
+    text = (out / "report.md").read_text()
+    assert "| model | MAD [µm] | MRD [%] | MAE [µm] | NRMSD | RMSE [µm] |" in text
+    assert "| base piezo model (diagnosis) |" in text
+    assert "## Findings" in text and "## Ambiguities" in text
+    for name in (
+        "loop_before_after",
+        "error_trend_before_after",
+        "residual_time",
+        "residual_input",
+        "residual_rate",
+        "residual_spectrum",
+    ):
+        assert f"](figures/{name}.png)" in text
+        assert (out / "figures" / f"{name}.png").read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_diagnose_refuses_to_overwrite(diagnosed, short_recording, capsys):
+    _, _, out = diagnosed
+    before = (out / "report.md").read_text()
+    argv = ["diagnose", str(short_recording), "--report", str(out / "report.md")]
+    assert main([*argv, "--plots", str(tmp := out / "elsewhere"), *QUICK]) == 2
+    assert "report.md" in _one_error_line(capsys)
+    assert (out / "report.md").read_text() == before
+    assert not tmp.exists()
+
+
+@pytest.mark.parametrize("model", ["corrected", "stage", "preisach"])
+def test_diagnose_supports_only_the_piezo_base(model, short_recording, capsys):
+    assert main(["diagnose", str(short_recording), "--model", model]) == 2
+    line = _one_error_line(capsys)
+    assert f"--model {model}" in line and "only supports" in line
+
+
+def test_diagnose_too_short_recording(tmp_path, capsys):
+    t = np.arange(50) * 0.01
+    jh.Recording(t, np.sin(t), np.cos(t)).save(tmp_path / "tiny.csv")
+    assert main(["diagnose", str(tmp_path / "tiny.csv"), *QUICK]) == 2
+    assert "200" in _one_error_line(capsys)
+
+
+# ------------------------------------------------------------------------- demo
+
+
+def test_demo_refuses_to_overwrite_before_computing(tmp_path, capsys):
+    (tmp_path / "report.md").write_text("mine")
+    assert main(["demo", "--out", str(tmp_path)]) == 2
+    line = _one_error_line(capsys, quiet=True)
+    assert "report.md" in line and "--force" in line
+    assert (tmp_path / "report.md").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+
+
+@pytest.mark.slow
+def test_demo_end_to_end(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out)]) == 0
+    stdout = capsys.readouterr().out
+    assert f"report: {out / 'report.md'}" in stdout
+    recording = jh.Recording.load(out / "recording.csv")
+    assert recording.num_samples == jh.demo_recording().recording.num_samples
+    fit = _strict_json(out / "fit.json")
+    assert FIT_KEYS <= set(fit)
+    diagnosis = _strict_json(out / "diagnosis.json")
+    assert diagnosis["findings"], "the demo recording conceals two effects"
+    assert diagnosis["final"]["rmse"] < diagnosis["baseline"]["rmse"]
+    text = (out / "report.md").read_text()
+    assert "| model | MAD [µm] | MRD [%] | MAE [µm] | NRMSD | RMSE [µm] |" in text
+    for number in range(8, 14):
+        assert f"**Figure {number}.**" in text
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
+    assert links and all((out / link).is_file() for link in links)
+    assert main(["demo", "--out", str(out)]) == 2  # no --force: refused

@@ -79,9 +79,7 @@ def test_identify_recovers_truth_to_noise_floor():
 
 def test_identifiability_reports_the_scaling_symmetry():
     recording, _ = _recording(noise=0.0)
-    report = jh.identifiability(
-        TRUTH, recording.input_path(), jnp.asarray(recording.y)
-    )
+    report = jh.identifiability(TRUTH, recording.input_path(), jnp.asarray(recording.y))
     assert len(report.unidentifiable) == 1
     direction = report.unidentifiable[0]
     # h -> c*h: relative changes k2 : A1 : beta1 : gamma1 = -1 : 1 : (1-n) : (1-n)
@@ -121,8 +119,12 @@ def test_gauge_fixed_fit_has_finite_standard_errors():
 def test_same_key_same_fit_and_polish_variants():
     recording, _ = _recording(rate=100.0)
     small = jh.MPSO(num_particles=24, num_iterations=30)
-    a = jh.identify(TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None)
-    b = jh.identify(TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None)
+    a = jh.identify(
+        TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None
+    )
+    b = jh.identify(
+        TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None
+    )
     assert a.metrics == b.metrics
     for polish in (jh.BFGSPolish(max_steps=30), jh.AdamPolish(max_steps=100)):
         fit = jh.identify(
@@ -169,7 +171,9 @@ def test_identify_bad_inputs():
 def test_fit_does_not_retrace_for_new_parameter_values():
     recording, _ = _recording(rate=50.0)
     space = jh.ParameterSpace.default(TEMPLATE, 4.0, 1.0, 10.0)
-    problem = jh.Problem(space, recording.input_path(), jnp.asarray(recording.y), jh.RK4())
+    problem = jh.Problem(
+        space, recording.input_path(), jnp.asarray(recording.y), jh.RK4()
+    )
 
     @eqx.filter_jit
     @eqx.debug.assert_max_traces(max_traces=1)

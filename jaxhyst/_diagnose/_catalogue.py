@@ -22,7 +22,7 @@ CATALOGUE: dict[str, Effect] = {
     for effect in (
         Effect(
             "asymmetry",
-            ("eps", "quad"),
+            ("eps", "quad", "cubic"),
             "the ascending and descending branches are not mirror images (the loop is "
             "wider or bent differently at one end of the stroke)",
         ),

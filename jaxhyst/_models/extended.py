@@ -22,7 +22,9 @@ class ExtendedPiezo(AbstractHysteresisModel):
     """`PiezoBoucWen` plus the catalogue's effects (all off at zero):
 
     - asymmetry:       hdot += eps*u*sign(udot)  (the paper's Delta_Phi);
-                       y += quad*((u - input_center)/input_scale)^2
+                       y += quad*(c^2 - c0^2) + cubic*(c^3 - c0^3),
+                       c = (u - input_center)/input_scale, c0 its value at u = 0
+                       (a static nonlinearity bends one end of the stroke)
     - input_bias:      the hysteresis sees V(t) = u(t + phi)
     - rate_dependence: hdot *= 1 + rate_gain*|udot|/rate_scale;  y += viscous*udot/rate_scale
     - creep:           y += creep_fast*(c1 - u) + creep_slow*(c2 - u)
@@ -47,6 +49,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
     n: Float[Array, ""] = parameter_field()
     eps: Float[Array, ""] = parameter_field(default=0.0)
     quad: Float[Array, ""] = parameter_field(default=0.0)
+    cubic: Float[Array, ""] = parameter_field(default=0.0)
     phi: Float[Array, ""] = parameter_field(default=0.0)
     rate_gain: Float[Array, ""] = parameter_field(default=0.0)
     viscous: Float[Array, ""] = parameter_field(default=0.0)
@@ -78,6 +81,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
         "n",
         "eps",
         "quad",
+        "cubic",
         "phi",
         "rate_gain",
         "viscous",
@@ -136,10 +140,13 @@ class ExtendedPiezo(AbstractHysteresisModel):
         h, c_fast, c_slow, c_slower = state[0], state[1], state[2], state[3]
         u = drive.u
         centred = (u - self.input_center) / self.input_scale
+        # Static terms vanish at zero input, so they add no offset (that is drift).
+        at_rest = -self.input_center / self.input_scale
         return (
             self.k1 * u
             + self.k2 * h
-            + self.quad * centred**2
+            + self.quad * (centred**2 - at_rest**2)
+            + self.cubic * (centred**3 - at_rest**3)
             + self.viscous * drive.udot / self.rate_scale
             + self.creep_fast * (c_fast - u)
             + self.creep_slow * (c_slow - u)

@@ -1,0 +1,263 @@
+"""Reports of fits and diagnoses (`jaxhyst._report`): figures, Markdown, JSON.
+
+The diagnosis here is built by hand (one made-up finding) so that every section of
+the report is exercised without running the diagnosis itself."""
+
+import json
+import math
+import re
+from pathlib import Path
+
+import jax
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+from jaxhyst._models.extended import ExtendedPiezo
+from jaxhyst._report import (
+    DIAGNOSIS_FIGURES,
+    FIT_FIGURES,
+    diagnosis_summary,
+    fit_summary,
+    jsonable,
+    metrics_table,
+    write_diagnosis_figures,
+    write_diagnosis_report,
+    write_fit_figures,
+    write_json,
+)
+
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+TRUTH = jh.PiezoBoucWen(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
+AMBIGUITY = "cannot tell asymmetry from input_bias on this recording"
+
+
+@pytest.fixture(scope="module")
+def recording():
+    path = jh.sample(jh.paper_u1(), 50.0)
+    clean = np.asarray(jh.simulate(TRUTH, path))
+    noise = 2e-3 * np.random.default_rng(0).standard_normal(clean.size)
+    tilt = 0.01 * np.asarray(path.values) * np.sign(np.gradient(path.values))
+    return jh.Recording(
+        np.asarray(path.times),
+        np.asarray(path.values),
+        clean + tilt + noise,
+        name="made-up",
+        input_unit="V",
+        output_unit="m",
+    )
+
+
+@pytest.fixture(scope="module")
+def diagnosis(recording):
+    y = np.asarray(recording.y)
+    inputs = recording.input_path()
+    base_predicted = np.asarray(jh.simulate(TRUTH, inputs))
+    final_predicted = y - 2e-3 * np.random.default_rng(1).standard_normal(y.size)
+    final_model = ExtendedPiezo.around(TRUTH, inputs).replace(eps=0.01, quad=0.0)
+    baseline = jh.error_metrics(y, base_predicted)
+    final = jh.error_metrics(y, final_predicted)
+    validation = {
+        "heldout_rmse_before": 0.01,
+        "heldout_rmse_after": 0.002,
+        "fit_rmse_before": 0.01,
+        "fit_rmse_after": 0.002,
+        "heldout_margin_mse": 1e-7,
+        "effective_samples_heldout": 150.0,
+        "bic_change": -300.0,
+        "score_statistic": 420.0,
+        "score_dof": 2,
+        "log10_p": -90.0,
+        "accepted": True,
+    }
+    finding = jh.Finding(
+        effect="asymmetry",
+        evidence="the branches differ: made-up evidence",
+        where="mismatch on the ascending branch (1.4x the overall RMS)",
+        score=420.0,
+        parameters={"eps": 0.01, "quad": 0.0},
+        before=baseline,
+        after=final,
+        validation=validation,
+    )
+    candidates = [
+        [
+            {
+                "effect": "asymmetry",
+                "statistic": 420.0,
+                "dof": 2,
+                "log10_p": -90.0,
+                "explained_mse": 1e-4,
+                "significant": True,
+                "start_mse": 1e-5,
+                "validation": validation,
+            },
+            {
+                "effect": "drift",
+                "statistic": np.float64(3.0),
+                "dof": 3,
+                "log10_p": np.float64(-0.5),
+                "explained_mse": np.float64(1e-7),
+                "significant": np.bool_(False),
+                "start_mse": np.float64(1e-5),
+            },
+        ]
+    ]
+    return jh.Diagnosis(
+        recording=recording.name,
+        samples=recording.num_samples,
+        base_model=TRUTH,
+        final_model=final_model,
+        baseline=baseline,
+        final=final,
+        findings=[finding],
+        candidates=candidates,
+        ambiguities=[AMBIGUITY + "; both explain the mismatch equally."],
+        noise_sigma=2e-3,
+        noise={"sigma": 2e-3, "lag1_autocorrelation": 0.01, "effective_samples": 500.0},
+        location={"overall_rms": 0.01, "holding": {"mean": float("nan")}},
+        base_predicted=base_predicted,
+        final_predicted=final_predicted,
+        holdout_fraction=0.3,
+        seconds=1.5,
+    )
+
+
+def test_diagnosis_figures_are_written_and_never_overwritten(
+    diagnosis, recording, tmp_path
+):
+    figures = write_diagnosis_figures(diagnosis, recording, tmp_path / "figs")
+    assert set(figures) == set(DIAGNOSIS_FIGURES)
+    for name, path in figures.items():
+        assert path == tmp_path / "figs" / DIAGNOSIS_FIGURES[name]
+        assert path.read_bytes().startswith(PNG_SIGNATURE)
+    mine = figures["residual_input"]
+    mine.write_bytes(b"mine")
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        write_diagnosis_figures(diagnosis, recording, tmp_path / "figs")
+    assert mine.read_bytes() == b"mine"
+    write_diagnosis_figures(diagnosis, recording, tmp_path / "figs", overwrite=True)
+    assert mine.read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_diagnosis_figures_need_the_diagnosed_recording(diagnosis, tmp_path):
+    other = jh.Recording(np.arange(10.0), np.sin(np.arange(10.0)), np.zeros(10))
+    with pytest.raises(ValueError, match="pass the recording it diagnosed"):
+        write_diagnosis_figures(diagnosis, other, tmp_path)
+    assert not list(tmp_path.iterdir())
+
+
+def test_report_has_the_table_findings_ambiguities_and_links(
+    diagnosis, recording, tmp_path
+):
+    figures = write_diagnosis_figures(diagnosis, recording, tmp_path / "figures")
+    (tmp_path / "out").mkdir()
+    data = write_json(diagnosis.to_dict(), tmp_path / "out" / "d.json", overwrite=False)
+    report = tmp_path / "report" / "report.md"
+    report.parent.mkdir()
+    path = write_diagnosis_report(
+        diagnosis, recording, report, figures, files={"diagnosis JSON": data}
+    )
+    assert path == report
+    text = report.read_text(encoding="utf-8")
+    # The paper's Table 5/6 format, in micrometres (the recording is in metres).
+    assert "| model | MAD [µm] | MRD [%] | MAE [µm] | NRMSD | RMSE [µm] |" in text
+    rows = [line for line in text.splitlines() if line.startswith("| base piezo")]
+    assert len(rows) == 1
+    mad = float(rows[0].split("|")[2])
+    assert mad == pytest.approx(1e6 * diagnosis.baseline["mad"], rel=1e-3)
+    assert "| final piezo+asymmetry |" in text
+    assert "| change, last vs first row |" in text
+    # The finding, with its evidence, location and validation; the ambiguity.
+    assert "### 1. asymmetry" in text
+    assert "made-up evidence" in text
+    assert "on the ascending branch" in text
+    assert "held-out RMSE 1e+04 -> 2000 µm" in text
+    assert "accepted" in text and "eps = 0.01" in text
+    assert AMBIGUITY in text
+    # Every figure is linked relative to the report, and the link resolves.
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
+    assert len(links) == len(DIAGNOSIS_FIGURES)
+    for link in links:
+        assert not Path(link).is_absolute()
+        assert (report.parent / link).resolve().is_file()
+    assert "](../out/d.json)" in text
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        write_diagnosis_report(diagnosis, recording, report, figures)
+
+
+def test_diagnosis_json_is_strict(diagnosis, tmp_path):
+    path = write_json(diagnosis.to_dict(), tmp_path / "d.json", overwrite=False)
+
+    def refuse(constant):
+        raise AssertionError(f"non-standard JSON constant {constant}")
+
+    data = json.loads(path.read_text(), parse_constant=refuse)
+    assert data["location"]["holding"]["mean"] is None  # NaN -> null
+    assert data["candidates"][0][1]["significant"] is False
+    assert data["final"]["model"] == "piezo+asymmetry"
+    assert data["findings"][0]["effect"] == "asymmetry"
+    with pytest.raises(FileExistsError):
+        write_json({}, path, overwrite=False)
+
+
+def test_jsonable_converts_numpy_and_non_finite():
+    value = {
+        "a": np.float32(1.5),
+        "b": np.arange(3),
+        "c": (np.int64(2), math.inf),
+        "d": np.bool_(True),
+        1: jax.numpy.asarray(2.0),
+    }
+    assert jsonable(value) == {
+        "a": 1.5,
+        "b": [0, 1, 2],
+        "c": [2, None],
+        "d": True,
+        "1": 2.0,
+    }
+    with pytest.raises(TypeError, match="cannot convert object"):
+        jsonable(object())
+
+
+def test_metrics_table_change_row():
+    before = {"rmse": 2.0, "mad": 4.0, "mrd": 1.0, "mae": 1.0, "nrmsd": 0.02}
+    after = {"rmse": 1.0, "mad": 3.0, "mrd": 0.75, "mae": 0.5, "nrmsd": 0.01}
+    table = metrics_table({"plain": before, "corrected": after}, "µm")
+    lines = table.splitlines()
+    assert lines[0] == "| model | MAD [µm] | MRD [%] | MAE [µm] | NRMSD | RMSE [µm] |"
+    assert lines[2] == "| plain | 4 | 1 | 1 | 0.02 | 2 |"
+    assert lines[-1] == (
+        "| change, last vs first row | -25.0 % | -25.0 % | -50.0 % | -50.0 % | -50.0 % |"
+    )
+
+
+def test_fit_figures_and_summary(recording, tmp_path):
+    fit = jh.identify(
+        jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
+        recording,
+        key=jax.random.key(0),
+        swarm=None,
+        polish=None,
+        start=TRUTH,
+        gauge=False,
+    )
+    figures = write_fit_figures(fit, recording, tmp_path / "new", label="piezo")
+    assert {name: path.name for name, path in figures.items()} == FIT_FIGURES
+    for path in figures.values():
+        assert path.read_bytes().startswith(PNG_SIGNATURE)
+    with pytest.raises(FileExistsError):
+        write_fit_figures(fit, recording, tmp_path / "new")
+    summary = fit_summary(fit, recording)
+    assert "model: PiezoBoucWen" in summary
+    assert "RMSE" in summary and "NRMSD" in summary and "µm" in summary
+    assert "timing:" in summary
+
+
+def test_diagnosis_summary(diagnosis, recording):
+    summary = diagnosis_summary(diagnosis, recording)
+    assert "1. asymmetry: eps = 0.01" in summary
+    assert "evidence: the branches differ" in summary
+    assert "final model: piezo+asymmetry" in summary
+    assert AMBIGUITY in summary
