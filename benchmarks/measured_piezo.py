@@ -13,7 +13,10 @@ The voltage is 0 until t = 3.257 s, then steps to about -87 V and continues as a
    input from rest), and the loss counts only t >= `--fit-start` (4 s), after the
    step's ringing. The corrected model is polished from the better of its own swarm
    and the plain fit (it nests the plain model at phi = eps = 0);
-3. runs `jh.diagnose` on the whole record and on the periodic part (t >= 4 s), at
+3. runs `jh.diagnose` on the whole record and on the periodic part: from the first
+   time after `--fit-start` where the fitted model's hysteretic state h crosses zero
+   (the diagnosis simulates from h = 0; starting anywhere else on the loop adds a
+   start-up error that is no physics), at
    `--diagnosis-rate` (default 1 kHz: the output is decimated with a zero-phase FIR
    filter, the input, a sine and one step, is subsampled). At 1 kHz the ringing
    (about 1 kHz) is above the Nyquist frequency and cannot be seen; pass
@@ -86,11 +89,22 @@ def log(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
+def cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo") as file:
+            for line in file:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
 def machine() -> dict:
     return {
         "python": platform.python_version(),
         "platform": platform.platform(),
-        "processor": platform.processor() or platform.machine(),
+        "processor": cpu_name(),
         "cpu_count": os.cpu_count(),
         "jax": jax.__version__,
         "jaxhyst": importlib.metadata.version("jaxhyst"),
@@ -174,6 +188,14 @@ def fit_models(record: jh.Recording, info: dict, fit_start: float, seed: int) ->
         start=jh.CorrectedPiezoBoucWen.from_piezo(plain.model),
     )
     out["corrected_seconds"] = time.perf_counter() - start
+    # Where the fitted hysteretic state crosses zero after `fit_start`: a record
+    # that starts there is consistent with the models' initial state h = 0.
+    _, states = jh.simulate(
+        plain.model, segment.input_path(), jh.RK4(), return_state=True
+    )
+    h = np.asarray(states)[:, 0]
+    after = np.flatnonzero(scored[1:] & (np.sign(h[1:]) != np.sign(h[:-1])))
+    out["periodic_start"] = float(segment.t[after[0] + 1]) if after.size else fit_start
     for name, fit in (("piezo", plain), ("corrected", corrected)):
         predicted = np.asarray(fit.predicted)
         residual = segment.y - predicted
@@ -345,6 +367,17 @@ def figures(out: Path, record, info, fits, diagnoses) -> list[str]:
 # ---------------------------------------------------------------------------- main
 
 
+def _identifiability(fit) -> dict | None:
+    """The identifiability summary without the standard errors: jaxhyst 0.1.0's
+    `identifiability` scales them by theta^2 (it multiplies the relative-change
+    Jacobian by theta instead of dividing), so they are not reported here."""
+    if fit.identifiability is None:
+        return None
+    summary = fit.identifiability.to_dict()
+    summary.pop("standard_errors", None)
+    return summary
+
+
 def _print_diagnosis(label: str, diag: dict) -> None:
     print(
         f"diagnosis, {label} ({diag['samples']} samples at {diag['rate_hz']:g} Hz, "
@@ -357,7 +390,13 @@ def _print_diagnosis(label: str, diag: dict) -> None:
     for entry in diag["screened"]:
         if not entry["significant"]:
             continue
-        verdict = "adopted" if entry["accepted"] else "rejected"
+        adopted = diag["effects"][entry["round"] - 1 : entry["round"]]
+        if entry["effect"] in adopted:
+            verdict = "passed held-out validation, adopted"
+        elif entry["accepted"]:
+            verdict = "passed held-out validation, not the best this round"
+        else:
+            verdict = "rejected"
         if entry.get("refit_error"):
             verdict += f" (refit failed: {entry['refit_error']})"
         held = ""
@@ -397,7 +436,7 @@ def main(argv=None) -> int:
         slow = decimated(record, args.diagnosis_rate)
         for label, rec in (
             ("whole record", slow),
-            ("periodic part", slow.segment(args.fit_start, None)),
+            ("periodic part", slow.segment(fits["periodic_start"], None)),
         ):
             log(f"diagnosing the {label} ...")
             diagnoses[label] = run_diagnosis(rec, args.seed)
@@ -426,6 +465,10 @@ def main(argv=None) -> int:
         "s, metrics in um over the scored samples):"
     )
     print(
+        f"  (the periodic part given to the diagnosis starts at t = "
+        f"{fits['periodic_start']:.4f} s, where the fitted h crosses zero)"
+    )
+    print(
         f"{'model':<34} {'RMSE':>8} {'MAD':>8} {'NRMSD %':>8} {'mean res':>9} "
         f"{'seconds':>8}"
     )
@@ -435,7 +478,7 @@ def main(argv=None) -> int:
     ):
         m = fits[f"{name}_metrics"]
         print(
-            f"{label:<34} {m['rmse']:>8.4g} {m['mad']:>8.4g} {m['nrmsd']:>8.3g} "
+            f"{label:<34} {m['rmse']:>8.4g} {m['mad']:>8.4g} {100 * m['nrmsd']:>8.3g} "
             f"{fits[f'{name}_mean_residual']:>9.3g} {fits[f'{name}_seconds']:>8.1f}"
         )
     for name in ("piezo", "corrected"):
@@ -470,15 +513,14 @@ def main(argv=None) -> int:
         result = {
             "record": info,
             "fit_start_s": args.fit_start,
+            "periodic_part_start_s": fits["periodic_start"],
             "fits": {
                 name: {
                     "metrics": fits[f"{name}_metrics"],
                     "mean_residual": fits[f"{name}_mean_residual"],
                     "parameters": fits[f"{name}_parameters"],
                     "seconds": fits[f"{name}_seconds"],
-                    "identifiability": fits[name].identifiability.to_dict()
-                    if fits[name].identifiability is not None
-                    else None,
+                    "identifiability": _identifiability(fits[name]),
                 }
                 for name in ("piezo", "corrected")
             },

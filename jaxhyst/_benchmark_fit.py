@@ -16,8 +16,10 @@ times per period of its fastest line: piecewise-linear input costs 7e-6 m of tes
 error on the benchmark, cubic 6e-7 m and band-limited upsampling 2.5e-7 m.
 
 `fit_periodic` is `identify` for such records: a swarm on a cheap, shortened copy,
-then Levenberg-Marquardt on the full period, then identifiability from the
-Jacobian at the result.
+Levenberg-Marquardt on the whole period at the same cheap resolution, then on the
+whole period with the accurate simulation, then identifiability from the Jacobian
+at the result (`periodic_identifiability`). `oscillator_space` gives the
+benchmark oscillator a log-scaled search box set by the data's scales.
 """
 
 import math

@@ -593,6 +593,7 @@ def _identify_corrected(recording: Recording, key, swarm: MPSO):
         key=jax.random.fold_in(key, 1),
         space=space,
         swarm=swarm,
+        start=template,  # phi = eps = 0, stage 1's fit, unless the swarm beats it
         analyse=False,
         progress=True,
     )
@@ -628,11 +629,9 @@ def _run_fit(args: argparse.Namespace) -> int:
     if json_path is not None:
         outputs.append(("--json", json_path))
     _check_files(outputs, args.force)
-    figure_paths = []
-    if args.plots is not None:
-        figure_paths = _check_folder(
-            "--plots", Path(args.plots), tuple(FIT_FIGURES.values()), args.force
-        )
+    plots = Path(args.plots) if args.plots is not None else None
+    if plots is not None:
+        _check_folder("--plots", plots, tuple(FIT_FIGURES.values()), args.force)
         require_matplotlib()
     recording = _load_recording(args)
 
@@ -680,9 +679,9 @@ def _run_fit(args: argparse.Namespace) -> int:
         if stages is not None:
             data["stages"] = stages
         _write_json(data, json_path, args.force)
-    if figure_paths:
+    if plots is not None:
         written = write_fit_figures(
-            fit, recording, args.plots, overwrite=args.force, label=args.model
+            fit, recording, plots, overwrite=args.force, label=args.model
         )
         _print_written(written.values())
     return 0
@@ -892,21 +891,25 @@ def _run_demo(args: argparse.Namespace) -> int:
         ),
     }
     concealed = " and ".join(
-        f"{effect} ({case.sizes[effect]:g} σ)" for effect in case.effects
+        f"{effect} ({case.sizes[effect]:.2g} σ)" for effect in case.effects
     )
-    named = set(diagnosis.effects)
-    verdict = (
-        "It named exactly these."
-        if named == set(case.effects)
-        else f"It named {', '.join(sorted(named)) or 'nothing'}; "
-        f"found {', '.join(sorted(named & set(case.effects))) or 'none'} of them"
-        + (
-            f", and {', '.join(sorted(named - set(case.effects)))} besides"
-            if named - set(case.effects)
-            else ""
-        )
-        + "."
-    )
+    named, truth = diagnosis.effects, set(case.effects)
+    found = [e for e in named if e in truth]
+    missed = sorted(truth - set(named))
+    extra = [e for e in named if e not in truth]
+
+    def listed(names):
+        names = list(names)
+        return " and ".join([", ".join(names[:-1]), names[-1]] if names[1:] else names)
+
+    if not named:
+        verdict = f"It named nothing, so it missed {listed(sorted(truth))}."
+    else:
+        verdict = f"It named {listed(named)}: of the concealed effects it found "
+        verdict += listed(found) if found else "none"
+        verdict += f" and missed {listed(missed)}" if missed else " and missed none"
+        verdict += f"; {listed(extra)} is extra" if extra else ""
+        verdict += " (see the findings and the ambiguities)."
     intro = (
         "The bundled demo (`jaxhyst demo`): a synthetic paper-like piezo stage under "
         "the paper's u2 = 4 - 4 cos(0.2 π t), scaled to 0-100 V, 30 s at 1 kHz. The "

@@ -301,7 +301,7 @@ def identifiability(
             )
     residual = np.asarray(simulate(model, inputs, solver, throw=False) - measured)
     columns = [names.index(n) for n in free]
-    jf = jac[:, columns] * np.asarray(scale)[columns]  # back to absolute units
+    jf = jac[:, columns] / np.asarray(scale)[columns]  # d y / d theta (absolute units)
     dof = max(1, residual.size - len(free))
     sigma2 = float(np.sum(residual**2) / dof)
     jtj = jf.T @ jf

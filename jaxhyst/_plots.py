@@ -354,6 +354,7 @@ def plot_residual_time(
     ulabel: str = "input u",
     ylabel: str = "residual y - yhat",
     tlabel: str = "time t [s]",
+    tunit: str = "s",
     title: str = "",
     scale: float = 1.0,
     window: float = 0.0,
@@ -361,7 +362,7 @@ def plot_residual_time(
 ) -> Path:
     """Residuals against time under the input: `u(t)` on top, then one panel per
     entry of `residuals` ({label: y - yhat}) with the raw residual faint and, when
-    `window` (in the units of `t`) spans several samples, its centred moving average
+    `window` (in the units of `t`, `tunit`) spans several samples, its centred moving average
     bold (the systematic part). `scale` multiplies the residuals; the y-axis holds
     99.5 % of the samples.
 
@@ -392,7 +393,7 @@ def plot_residual_time(
                 smooth,
                 color=color,
                 linewidth=1.8,
-                label=f"moving average over {width * step:.3g}",
+                label=f"moving average over {width * step:.3g} {tunit}".rstrip(),
             )
             axis.legend(loc="upper right", fontsize="small")
         axis.set_title(label, fontsize="medium")

@@ -27,7 +27,6 @@ from typing import Any
 
 import numpy as np
 
-from ._diagnose._catalogue import CATALOGUE
 from ._diagnose._engine import Diagnosis
 from ._identify import Fit
 from ._plots import (
@@ -312,6 +311,8 @@ def write_diagnosis_figures(
         residuals,
         ulabel=xlabel,
         ylabel=rlabel,
+        tlabel=f"time t{_bracket(recording.time_unit)}",
+        tunit=recording.time_unit,
         title=f"{recording.name}: residual over time",
         scale=scale,
         window=0.25,
@@ -399,6 +400,13 @@ def metrics_table(
     return "\n".join(lines)
 
 
+def _log10_p(value: float | None) -> str:
+    """log10 of a p-value; one that underflows double precision shows as < -300."""
+    if value is not None and value == -math.inf:
+        return "< -300"
+    return _number(value, 3)
+
+
 def _parameters_text(parameters: Mapping[str, float]) -> str:
     return ", ".join(f"{k} = {_number(v, 6)}" for k, v in parameters.items())
 
@@ -416,7 +424,7 @@ def _validation_lines(v: Mapping[str, Any], scale: float, unit: str) -> list[str
         f"{_number(scale * v['fit_rmse_after'])}{s}; BIC change "
         f"{_number(v['bic_change'], 4)} (negative: the parameters pay for themselves)",
         f"score test {_number(v['score_statistic'], 4)} on {v['score_dof']} dof, "
-        f"log10 p = {_number(v['log10_p'], 4)}; {verdict}",
+        f"log10 p {_log10_p(v['log10_p'])}; {verdict}",
     ]
 
 
@@ -487,7 +495,7 @@ def diagnosis_markdown(
     ]
     rows: dict[str, Mapping[str, float]] = {}
     if fit is not None:
-        rows[f"{type(fit.model).__name__}, fitted on all samples"] = fit.metrics
+        rows[f"plain {type(fit.model).__name__} fit (all samples)"] = fit.metrics
     rows["base piezo model (diagnosis)"] = diagnosis.baseline
     if diagnosis.findings:
         rows[f"final {final_name}"] = diagnosis.final
@@ -506,7 +514,6 @@ def diagnosis_markdown(
         out += [
             f"### {number}. {finding.effect}",
             "",
-            f"- **What it is:** {CATALOGUE[finding.effect].meaning}.",
             f"- **Evidence:** {finding.evidence}",
             f"- **Where:** {finding.where}.",
             f"- **Fitted parameters:** {_parameters_text(finding.parameters)}.",
@@ -539,14 +546,17 @@ def diagnosis_markdown(
             for c in round_:
                 v = c.get("validation")
                 after = _number(scale * v["heldout_rmse_after"]) if v else "-"
-                taken = (
-                    "yes"
-                    if index <= len(adopted) and adopted[index - 1] == c["effect"]
-                    else ("rejected" if v else "-")
-                )
+                if index <= len(adopted) and adopted[index - 1] == c["effect"]:
+                    taken = "yes"
+                elif v and v.get("accepted"):
+                    taken = "passed; another did better"
+                elif v:
+                    taken = "rejected"
+                else:
+                    taken = "not refitted" if c["significant"] else "-"
                 out.append(
                     f"| {index} | {c['effect']} | {_number(c['statistic'], 4)} | "
-                    f"{c['dof']} | {_number(c['log10_p'], 3)} | "
+                    f"{c['dof']} | {_log10_p(c['log10_p'])} | "
                     f"{'yes' if c['significant'] else 'no'} | {after} | {taken} |"
                 )
         out.append("")
@@ -625,15 +635,23 @@ def fit_summary(fit: Fit, recording: Recording) -> str:
         errors = fit.identifiability.standard_errors
     width = max(len(n) for n in names)
     lines = [f"model: {type(fit.model).__name__}", "parameters:"]
+    singular = False
     for name in names:
         value = float(getattr(fit.model, name))
         if name in errors and math.isfinite(errors[name]):
             note = f"  ± {errors[name]:.3g}"
         elif name in errors:
-            note = "  (not identifiable alone)"
+            note, singular = "  ± n/a", True
         else:
             note = "  (fixed)"
         lines.append(f"  {name:<{width}}  {value:>14.6g}{note}")
+    if singular:
+        lines.append(
+            "  (± n/a: the free parameters are not jointly identifiable from this "
+            "record, so no standard errors; see 'identifiability' in the JSON)"
+        )
+    elif errors:
+        lines.append("  (± one standard error, from the Jacobian at the fit)")
     m = fit.metrics
     lines += [
         "metrics:",

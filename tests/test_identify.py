@@ -182,3 +182,24 @@ def test_fit_does_not_retrace_for_new_parameter_values():
 
     for value in (0.2, 0.5, 0.8):
         loss(jnp.full(space.dimension, value), problem)
+
+
+def test_standard_errors_match_parameter_scatter_units():
+    """Standard errors are in parameter units: scaling the output by 10 scales the
+    standard error of k1 (an output/input gain) by 10."""
+    recording, _ = _recording(seed=4)
+    space_free = ("k1", "k2", "beta1", "gamma1", "n")
+    base = jh.identifiability(
+        TRUTH, recording.input_path(), jnp.asarray(recording.y), free=space_free
+    )
+    scaled_truth = TRUTH.replace(k1=10 * TRUTH.k1, k2=10 * TRUTH.k2)
+    scaled = jh.identifiability(
+        scaled_truth,
+        recording.input_path(),
+        10 * jnp.asarray(recording.y),
+        free=space_free,
+    )
+    ratio = scaled.standard_errors["k1"] / base.standard_errors["k1"]
+    assert ratio == pytest.approx(10.0, rel=1e-3)
+    # And of the right size: well below the value, above zero.
+    assert 0 < base.standard_errors["k1"] < 1e-2 * float(TRUTH.k1)
