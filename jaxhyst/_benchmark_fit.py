@@ -37,8 +37,8 @@ from ._identify import (
     Identifiability,
     LevenbergMarquardtPolish,
     Problem,
-    _problem_rmse,
     _swarm_objective,
+    best_seed,
 )
 from ._inputs import AbstractInterpolation, CubicInterpolation, InputPath
 from ._metrics import error_metrics
@@ -428,8 +428,7 @@ def fit_periodic(
         seeds.append(swarm_result.best_x)
     if start is not None:
         seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
-    scores = [float(_problem_rmse(coarse, z)) for z in seeds]
-    z = seeds[int(np.argmin(np.where(np.isfinite(scores), scores, np.inf)))]
+    z = best_seed(coarse, seeds)
     polish_result = None
     if prepolish is not None:
         polish_result = prepolish.run(coarse, z)

@@ -73,6 +73,13 @@ def _problem_rmse(problem: Problem, z):
     return problem.rmse(z)
 
 
+def best_seed(problem: Problem, seeds: list[Array]) -> Array:
+    """The starting point with the lowest finite RMSE (the first one if none is
+    finite)."""
+    scores = [float(_problem_rmse(problem, z)) for z in seeds]
+    return seeds[int(np.argmin(np.where(np.isfinite(scores), scores, np.inf)))]
+
+
 # ----------------------------------------------------------------------------- polish
 
 
@@ -468,8 +475,7 @@ def identify(
         seeds.append(swarm_result.best_x)
     if start is not None:
         seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
-    scores = [float(_problem_rmse(problem, z)) for z in seeds]
-    z = seeds[int(np.nanargmin(np.where(np.isfinite(scores), scores, np.inf)))]
+    z = best_seed(problem, seeds)
     polish_result = None
     if polish is not None:
         polish_result = polish.run(problem, z)
