@@ -90,6 +90,7 @@ from ._simulate import (
     AbstractSimulationSolver as AbstractSimulationSolver,
     DiffraxSolver as DiffraxSolver,
     simulate as simulate,
+    sum_squared_error as sum_squared_error,
 )
 from ._smoothing import (
     AbstractSmoothing as AbstractSmoothing,

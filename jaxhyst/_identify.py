@@ -23,7 +23,7 @@ from ._metrics import error_metrics
 from ._models.base import AbstractHysteresisModel
 from ._params import ParameterSpace
 from ._recording import Recording
-from ._simulate import RK4, AbstractSimulationSolver, simulate
+from ._simulate import RK4, AbstractSimulationSolver, simulate, sum_squared_error
 from ._stability import is_bibo_stable
 from ._swarm import MPSO, SwarmResult, run_swarm
 
@@ -50,11 +50,13 @@ class Problem(eqx.Module):
     def rmse(self, z: Float[Array, " d"]) -> Float[Array, ""]:
         """Root-mean-square error in output units, eq. 12 (+inf for unstable sets when
         `stable_only`), over the weighted samples."""
-        r = self.residuals(z)
-        count = r.size if self.weights is None else jnp.sum(self.weights**2)
-        value = jnp.sqrt(jnp.sum(r**2) / count) * jnp.max(jnp.abs(self.measured))
+        model = self.space.to_model(z)
+        total = sum_squared_error(
+            model, self.inputs, self.measured, self.solver, weights=self.weights
+        )
+        count = self.measured.size if self.weights is None else jnp.sum(self.weights**2)
+        value = jnp.sqrt(total / count)
         if self.stable_only:
-            model = self.space.to_model(z)
             params = model.parameters()
             a = params.get("A1", params.get("A"))
             b = params.get("beta1", params.get("beta"))

@@ -44,8 +44,21 @@ class RK4(AbstractSimulationSolver):
             )
 
     def states(self, model, inputs, initial_state):
+        advance = self._advance(model, inputs)
+
+        def over_interval(state, interval):
+            state = advance(state, interval)
+            return state, state
+
+        intervals = jnp.arange(inputs.num_samples - 1)
+        _, states = jax.lax.scan(over_interval, initial_state, intervals)
+        return jnp.concatenate([initial_state[None], states])
+
+    def _advance(self, model, inputs):
+        """`advance(state, interval)`: the state at the end of sample interval
+        `interval`, from the state at its start."""
         m = self.substeps
-        dtype = initial_state.dtype
+        dtype = inputs.values.dtype
         h = inputs.dt / m
 
         def rate(interval, frac, state):
@@ -63,18 +76,12 @@ class RK4(AbstractSimulationSolver):
             k4 = rate(interval, f1, state + h * k3)
             return state + (h / 6) * (k1 + 2 * k2 + 2 * k3 + k4)
 
-        def over_interval(state, interval):
+        def advance(state, interval):
             if m == 1:
-                state = rk4_step(interval, 0, state)
-            else:
-                state = jax.lax.fori_loop(
-                    0, m, lambda j, s: rk4_step(interval, j, s), state
-                )
-            return state, state
+                return rk4_step(interval, 0, state)
+            return jax.lax.fori_loop(0, m, lambda j, s: rk4_step(interval, j, s), state)
 
-        intervals = jnp.arange(inputs.num_samples - 1)
-        _, states = jax.lax.scan(over_interval, initial_state, intervals)
-        return jnp.concatenate([initial_state[None], states])
+        return advance
 
 
 class DiffraxSolver(AbstractSimulationSolver):
@@ -116,16 +123,51 @@ class DiffraxSolver(AbstractSimulationSolver):
         return ys
 
 
-def _sample_drives(model: AbstractHysteresisModel, inputs: InputPath):
-    """The model's drive at every sample instant (right-continuous, the last sample
-    read from the left)."""
-    n = inputs.num_samples
-    index = jnp.arange(n)
-    interval = jnp.minimum(index, n - 2)
+def _sample_drive(model: AbstractHysteresisModel, inputs: InputPath, index):
+    """The model's drive at sample `index` (right-continuous, the last sample read
+    from the left)."""
+    interval = jnp.minimum(index, inputs.num_samples - 2)
     frac = (index - interval).astype(inputs.dt.dtype)
-    return jax.vmap(lambda i, f, t: model.drive(inputs, t, i, f))(
-        interval, frac, inputs.times
-    )
+    t = inputs.t0 + inputs.dt * jnp.asarray(index, inputs.dt.dtype)
+    return model.drive(inputs, t, interval, frac)
+
+
+def _sample_drives(model: AbstractHysteresisModel, inputs: InputPath):
+    """The model's drive at every sample instant."""
+    index = jnp.arange(inputs.num_samples)
+    return jax.vmap(lambda i: _sample_drive(model, inputs, i))(index)
+
+
+def _prepare(owner, model, inputs, solver, initial_state):
+    """Check the arguments of `simulate`-like functions; returns the model cast to the
+    input's dtype and the initial state."""
+    if not isinstance(model, AbstractHysteresisModel):
+        raise TypeError(
+            f"{owner}: model must be a jaxhyst model (e.g. PiezoBoucWen), got "
+            f"{type(model).__name__}."
+        )
+    if not isinstance(inputs, InputPath):
+        raise TypeError(
+            f"{owner}: inputs must be an InputPath, got {type(inputs).__name__}; "
+            "build one with InputPath.from_samples(t, u), recording.input_path() or "
+            "jaxhyst.sample(signal, rate)."
+        )
+    if not isinstance(solver, AbstractSimulationSolver):
+        raise TypeError(
+            f"{owner}: solver must be RK4(...) or DiffraxSolver(...), got "
+            f"{type(solver).__name__}."
+        )
+    dtype = inputs.values.dtype
+    model = model.astype(dtype)
+    if initial_state is None:
+        initial_state = model.initial_state(_sample_drive(model, inputs, 0))
+    initial_state = jnp.asarray(initial_state, dtype)
+    if initial_state.shape != (model.state_size,):
+        raise ValueError(
+            f"{owner}: initial_state must have shape ({model.state_size},) for "
+            f"{type(model).__name__}, got {initial_state.shape}."
+        )
+    return model, initial_state
 
 
 def simulate(
@@ -145,34 +187,9 @@ def simulate(
     (under jit, through `eqx.error_if`); pass `throw=False` where divergence is
     expected and handled, e.g. inside a swarm's objective.
     """
-    if not isinstance(model, AbstractHysteresisModel):
-        raise TypeError(
-            f"simulate: model must be a jaxhyst model (e.g. PiezoBoucWen), got "
-            f"{type(model).__name__}."
-        )
-    if not isinstance(inputs, InputPath):
-        raise TypeError(
-            f"simulate: inputs must be an InputPath, got {type(inputs).__name__}; "
-            "build one with InputPath.from_samples(t, u), recording.input_path() or "
-            "jaxhyst.sample(signal, rate)."
-        )
-    if not isinstance(solver, AbstractSimulationSolver):
-        raise TypeError(
-            f"simulate: solver must be RK4(...) or DiffraxSolver(...), got "
-            f"{type(solver).__name__}."
-        )
-    dtype = inputs.values.dtype
-    model = model.astype(dtype)
-    drives = _sample_drives(model, inputs)
-    if initial_state is None:
-        initial_state = model.initial_state(jax.tree.map(lambda x: x[0], drives))
-    initial_state = jnp.asarray(initial_state, dtype)
-    if initial_state.shape != (model.state_size,):
-        raise ValueError(
-            f"simulate: initial_state must have shape ({model.state_size},) for "
-            f"{type(model).__name__}, got {initial_state.shape}."
-        )
+    model, initial_state = _prepare("simulate", model, inputs, solver, initial_state)
     states = solver.states(model, inputs, initial_state)
+    drives = _sample_drives(model, inputs)
     outputs = jax.vmap(model.output)(inputs.times, states, drives)
     if throw:
         outputs = eqx.error_if(
@@ -185,3 +202,60 @@ def simulate(
     if return_state:
         return outputs, states
     return outputs
+
+
+def sum_squared_error(
+    model: AbstractHysteresisModel,
+    inputs: InputPath,
+    measured: Float[Array, " n"],
+    solver: AbstractSimulationSolver = RK4(),
+    *,
+    weights: Float[Array, " n"] | None = None,
+    initial_state: Float[Array, " s"] | None = None,
+) -> Float[Array, ""]:
+    """`sum((weights * (simulate(model, inputs) - measured))**2)`, NaN or inf if the
+    model diverges.
+
+    With `RK4` the error is accumulated inside the integration loop, so the trajectory
+    is never stored: the form a swarm objective wants (less memory traffic per
+    particle). Other solvers simulate first.
+    """
+    model, initial_state = _prepare(
+        "sum_squared_error", model, inputs, solver, initial_state
+    )
+    n = inputs.num_samples
+    measured = jnp.asarray(measured, inputs.values.dtype)
+    if measured.shape != (n,):
+        raise ValueError(
+            f"sum_squared_error: measured must have shape ({n},) like the input, got "
+            f"{measured.shape}."
+        )
+    weights = (
+        jnp.ones_like(measured)
+        if weights is None
+        else jnp.asarray(weights, measured.dtype)
+    )
+    if not isinstance(solver, RK4):
+        outputs = simulate(
+            model, inputs, solver, initial_state=initial_state, throw=False
+        )
+        return jnp.sum((weights * (outputs - measured)) ** 2)
+
+    def weighted_error(index, state):
+        drive = _sample_drive(model, inputs, index)
+        t = inputs.t0 + inputs.dt * jnp.asarray(index, inputs.dt.dtype)
+        return weights[index] * (model.output(t, state, drive) - measured[index])
+
+    advance = solver._advance(model, inputs)
+
+    def over_interval(carry, interval):
+        state, total = carry
+        state = advance(state, interval)
+        error = weighted_error(interval + 1, state)
+        return (state, total + error * error), None
+
+    first = weighted_error(0, initial_state)
+    (_, total), _ = jax.lax.scan(
+        over_interval, (initial_state, first * first), jnp.arange(n - 1)
+    )
+    return total

@@ -266,3 +266,36 @@ def test_input_bias_gradient_matches_sample_scale_differences():
     fd = (loss(0.2 + step) - loss(0.2 - step)) / (2 * step)
     np.testing.assert_allclose(jax.grad(loss)(0.2), fd, rtol=1e-3)
     assert abs(float(jax.grad(loss)(0.0))) > 0
+
+
+@pytest.mark.parametrize(
+    "model, solver",
+    [
+        (piezo_model(), jh.RK4()),
+        (piezo_model(), jh.RK4(substeps=3)),
+        (
+            jh.PiezoStage.from_piezo(
+                piezo_model(), natural_frequency=40.0, damping_ratio=0.2
+            ),
+            jh.RK4(substeps=2),
+        ),
+        (piezo_model(), jh.DiffraxSolver()),
+    ],
+)
+def test_sum_squared_error_matches_simulate(model, solver):
+    path = multisine_path(rate=200.0, duration=2.0)
+    measured = jh.simulate(piezo_model(k2=0.9), path) + 0.01
+    weights = jnp.asarray(np.random.default_rng(0).uniform(0, 2, path.num_samples))
+    predicted = jh.simulate(model, path, solver)
+    for w in (None, weights):
+        expected = jnp.sum(((1.0 if w is None else w) * (predicted - measured)) ** 2)
+        got = jh.sum_squared_error(model, path, measured, solver, weights=w)
+        np.testing.assert_allclose(got, expected, rtol=1e-10)
+
+
+def test_sum_squared_error_bad_arguments():
+    path = multisine_path(rate=200.0, duration=1.0)
+    with pytest.raises(ValueError, match="measured must have shape"):
+        jh.sum_squared_error(piezo_model(), path, jnp.zeros(3))
+    with pytest.raises(TypeError, match="sum_squared_error: model"):
+        jh.sum_squared_error("piezo", path, jnp.zeros(path.num_samples))
