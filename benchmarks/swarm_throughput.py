@@ -53,6 +53,9 @@ DURATION = 10.0  # seconds: one period of the paper's u1
 # --------------------------------------------------------------------------- options
 
 
+WIDE_VECTORS = "--xla_cpu_prefer_vector_width=512"
+
+
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[50, 100, 300, 500])
@@ -86,8 +89,11 @@ def parse_args(argv=None):
     parser.add_argument(
         "--phases",
         nargs="+",
-        default=["forced", "native"],
-        choices=["forced", "native"],
+        default=["forced", "native", "wide"],
+        choices=["forced", "native", "wide"],
+        help="wide = forced plus XLA_FLAGS=--xla_cpu_prefer_vector_width=512 (AVX-512 "
+        "CPUs: XLA then vectorises 16 float32 / 8 float64 lanes); jaxhyst and evosax "
+        "run in it",
     )
     parser.add_argument(
         "--host-devices",
@@ -113,7 +119,9 @@ def parse_args(argv=None):
     parser.add_argument(
         "--from-json", metavar="PATH", help="print the table of a saved --json result"
     )
-    parser.add_argument("--phase", choices=["forced", "native"], help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--phase", choices=["forced", "native", "wide"], help=argparse.SUPPRESS
+    )
     parser.add_argument("--phase-out", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.quick:
@@ -599,8 +607,10 @@ def bench_numpy(bench, size, args, runner, label, note):
 
 
 def run_phase(args):
-    if args.phase == "forced":
+    if args.phase in ("forced", "wide"):
         flag = f"--xla_force_host_platform_device_count={args.host_devices}"
+        if args.phase == "wide":
+            flag += " " + WIDE_VECTORS
         os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + " " + flag).strip()
     load_before = os.getloadavg()
     import jax
@@ -629,23 +639,26 @@ def run_phase(args):
             n = len(devices)
             todo = []  # (function, arguments)
             if "jaxhyst" in args.methods:
-                if args.phase == "forced":
-                    todo.append((bench_jaxhyst, (None, f"1 of {n} (forced)", clock)))
+                if args.phase in ("forced", "wide"):
+                    mode = args.phase
+                    todo.append((bench_jaxhyst, (None, f"1 of {n} ({mode})", clock)))
                     todo.append(
-                        (bench_jaxhyst, ("auto", f"{n} (forced, sharded)", clock))
+                        (bench_jaxhyst, ("auto", f"{n} ({mode}, sharded)", clock))
                     )
                 else:
                     todo.append((bench_jaxhyst, (None, "1 (native)", clock)))
-            if args.phase == "native":
+            if args.phase in ("native", "wide"):
+                wide = " [wide]" if args.phase == "wide" else ""
                 if "evosax" in args.methods and has_evosax:
-                    label = "evosax PSO + jaxhyst objective"
+                    label = "evosax PSO + jaxhyst objective" + wide
                     todo.append(
                         (bench_evosax, (jaxhyst_objective, bench.problem, label, clock))
                     )
-                    label = "evosax PSO + plain JAX objective"
+                    label = "evosax PSO + plain JAX objective" + wide
                     todo.append(
                         (bench_evosax, (plain_jax_loss, bench.plain_data, label, clock))
                     )
+            if args.phase == "native":
                 if "numpy" in args.methods:
                     todo.append(
                         (
@@ -702,8 +715,13 @@ def child_command(args, phase, out):
 
 
 def add_ratios(rows):
-    """`jaxhyst_speedup` = the best jaxhyst rate (any device mode) / this row's rate,
-    at the same dtype and size."""
+    """`jaxhyst_speedup` = the best jaxhyst rate / this row's rate, at the same dtype
+    and size and under the same XLA vector-width setting (a "wide" baseline is compared
+    with wide jaxhyst rows only, a default one with default rows only)."""
+
+    def is_wide(r):
+        return "wide" in r["devices"] or "[wide]" in r["method"]
+
     for row in rows:
         candidates = [
             r
@@ -711,6 +729,7 @@ def add_ratios(rows):
             if r["method"] == "jaxhyst MPSO"
             and r["dtype"] == row["dtype"]
             and r["size"] == row["size"]
+            and is_wide(r) == is_wide(row)
         ]
         ref = max(candidates, key=lambda r: r["particle_steps_per_s"], default=None)
         row["jaxhyst_speedup"] = (

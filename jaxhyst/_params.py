@@ -180,8 +180,10 @@ class ParameterSpace(eqx.Module):
             "k1": (-3 * sy / su, 3 * sy / su),
             "k2": (-5 * sy, 5 * sy),
             "A1": (-3 / su, 3 / su),
-            "beta1": (-10 / su, 10 / su),
-            "gamma1": (-10 / su, 10 / su),
+            # |beta1|, |gamma1| * max|u| up to 50: the loop may saturate within 2 % of
+            # the input range (the paper's Table 4 sets reach ~37).
+            "beta1": (-50 / su, 50 / su),
+            "gamma1": (-50 / su, 50 / su),
             "n": (1.0, 3.0),
         }
         if isinstance(template, (PiezoBoucWen, CorrectedPiezoBoucWen, PiezoStage)):

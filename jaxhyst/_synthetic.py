@@ -42,7 +42,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.signal
 from jaxtyping import Array, Float, PRNGKeyArray
 
 from ._inputs import InputPath
@@ -878,6 +877,8 @@ def _noise(
         phi, white_share = rng.uniform(0.93, 0.98), rng.uniform(0.02, 0.08)
     drive = np.sqrt(1 - phi**2) * rng.standard_normal(num)
     drive[0] = rng.standard_normal()  # start in the stationary distribution
+    import scipy.signal  # deferred: heavy import, needed only here
+
     ar = scipy.signal.lfilter([1.0], [1.0, -phi], drive)
     noise = sigma * (np.sqrt(1 - white_share) * ar + np.sqrt(white_share) * white)
     what = f"coloured AR(1), coefficient {phi:.3g}"

@@ -11,7 +11,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import PRNGKeyArray
-from scipy import stats
 
 from .._identify import (
     Fit,
@@ -381,6 +380,12 @@ def _mse(residual, mask):
 # ---------------------------------------------------------------------- diagnose
 
 
+def _chi2():
+    from scipy import stats  # deferred: scipy.stats costs ~0.5 s of import time
+
+    return stats.chi2
+
+
 def diagnose(
     recording: Recording,
     *,
@@ -494,8 +499,8 @@ def diagnose(
             stat = _score(perp, residual * w, ar, sigma2)
             dof = perp.shape[1]
             if dof not in threshold_cache:
-                threshold_cache[dof] = float(stats.chi2.isf(significance, dof))
-            log10_p = float(stats.chi2.logsf(stat, dof) / np.log(10))
+                threshold_cache[dof] = float(_chi2().isf(significance, dof))
+            log10_p = float(_chi2().logsf(stat, dof) / np.log(10))
             step, *_ = np.linalg.lstsq(perp, residual * w, rcond=None)
             explained = float(np.sum((perp @ step) ** 2) / max(1, w.sum()))
             scored.append(
