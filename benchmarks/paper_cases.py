@@ -45,12 +45,12 @@ iterations instead; `--full` runs the paper's G; `--max-iterations M` caps G'.
 Every table says, per swarm, G' of G and the scale G'/G.
 
 Search box. `ParameterSpace.default` (A1 fixed at 1/max|u| to remove the h -> c h
-symmetry, other bounds scaled to the data) with beta1 and gamma1 widened to
-+-`--beta-gamma-bound`/max|u| (default 50): the default +-10/max|u| excludes
-Table 4's beta1 = 9.26 and gamma1 = -6.42 (in this gauge, for n = 1, they are
-unchanged). Velocities are clamped to 0.2 of the box per iteration (as the CLI's
-`--preset`); the paper's [-1, 1] refers to its raw bounds. c1 = 1.3, c2 = 1.7, w from
-0.9 to 0.1 as Table 3.
+symmetry, other bounds scaled to the data; beta1 and gamma1 within +-50/max|u|, which
+holds Table 4's beta1 = 9.26 and gamma1 = -6.42: in this gauge, for n = 1, they are
+unchanged). `--beta-gamma-bound B` sets those two bounds to +-B/max|u| instead; the
+box in use is printed. Velocities are clamped to 0.2 of the box per iteration (as the
+CLI's `--preset`); the paper's [-1, 1] refers to its raw bounds. c1 = 1.3, c2 = 1.7, w
+from 0.9 to 0.1 as Table 3.
 
     python benchmarks/paper_cases.py --quick
     python benchmarks/paper_cases.py --json paper.json --plots paper-figures
@@ -199,7 +199,12 @@ def parse_args(argv=None):
         help="the swarm simulates every k-th sample (default 1: all, as the paper; "
         "5 with --quick)",
     )
-    parser.add_argument("--beta-gamma-bound", type=float, default=50.0)
+    parser.add_argument(
+        "--beta-gamma-bound",
+        type=float,
+        default=None,
+        help="beta1, gamma1 in +-B/max|u| (default: ParameterSpace.default's)",
+    )
     parser.add_argument(
         "--no-polish", action="store_true", help="skip the Levenberg-Marquardt rows"
     )
@@ -349,9 +354,9 @@ def paper_recording(signal, *, key, rate=1000.0, noise=1e-3, phi=0.0, eps=0.0, n
     }
 
 
-def search_space(template, recording, beta_gamma_bound=50.0):
-    """`ParameterSpace.default` (gauge A1 = 1/max|u|) with beta1, gamma1 widened to
-    +-beta_gamma_bound / max|u|."""
+def search_space(template, recording, beta_gamma_bound=None):
+    """`ParameterSpace.default` (gauge A1 = 1/max|u|), with beta1, gamma1 in
+    +-beta_gamma_bound / max|u| when that is given."""
     su = float(np.max(np.abs(recording.u)))
     space = jh.ParameterSpace.default(
         template,
@@ -360,6 +365,8 @@ def search_space(template, recording, beta_gamma_bound=50.0):
         recording.duration,
         sample_rate=recording.sample_rate,
     )
+    if beta_gamma_bound is None:
+        return space
     bounds = {
         name: (float(lo), float(hi))
         for name, lo, hi in zip(space.names, space.lower, space.upper)
@@ -382,6 +389,13 @@ def in_gauge(model, a1):
     if "eps" in params:
         params["eps"] *= c
     return params
+
+
+def describe_box(space):
+    return ", ".join(
+        f"{name} in [{lo:.4g}, {hi:.4g}]"
+        for name, lo, hi in zip(space.names, space.lower, space.upper)
+    )
 
 
 def metrics_um(y, yhat):
@@ -707,15 +721,12 @@ def plot_corrected(folder, data, pairs, prefix, title, time_history=False):
     fig, axes = plt.subplots(n, 1, figsize=(8, 3 * n), constrained_layout=True)
     for axis, (label, (nc, c)) in zip(np.atleast_1d(axes), pairs.items()):
         for name, fit in (("NC model", nc), ("C model", c)):
-            axis.plot(
-                rec.t,
-                np.abs(rec.y - np.asarray(fit.predicted)) * UM,
-                lw=0.7,
-                label=name,
-            )
+            error = np.abs(np.asarray(fit.predicted) - data["clean"]) * UM
+            axis.plot(rec.t, error, lw=1, label=name)
+        axis.axhline(data["sigma"] * UM, color="0.5", ls=":", label="noise sigma")
         axis.set_title(label, fontsize="medium")
         axis.set_xlabel("t [s]")
-        axis.set_ylabel("|error| [um]")
+        axis.set_ylabel("|model - noise-free truth| [um]")
         axis.grid(alpha=0.3)
         axis.legend(fontsize="small")
     fig.suptitle(title[1])
@@ -833,6 +844,7 @@ def main(argv=None):
     truth_a1 = float(u1["base_truth"].A1)
     template = jh.PiezoBoucWen.paper_table4(3)  # a template: values are replaced
     space = search_space(template, rec, args.beta_gamma_bound)
+    result["search_box_u1"] = describe_box(space)
 
     # 2. Table 3 / 4: Cases 1-4
     case_fits, case_rows = {}, []
@@ -958,7 +970,8 @@ def main(argv=None):
                 ),
                 (
                     "Figure 11 analogue: loops under u2 (detrended)",
-                    "Figure 13 analogue: absolute error under u2",
+                    "Figure 13 analogue: absolute error against the noise-free "
+                    "truth, u2",
                 ),
                 time_history=True,
             )
@@ -976,7 +989,8 @@ def main(argv=None):
                 ("fig9_corrected_loops.png", "fig10_error_trends.png"),
                 (
                     "Figure 9 analogue: corrected (two-stage) vs non-corrected, u1",
-                    "Figure 10 analogue: absolute error, u1",
+                    "Figure 10 analogue: absolute error against the noise-free truth "
+                    "(against the data it is noise), u1",
                 ),
             )
 
@@ -998,21 +1012,26 @@ def main(argv=None):
         )
     swarms = {id(r): r for r in case_rows + table5 + table6 if "G" in r}
     scaled = [r for r in swarms.values() if r["scaled"]]
-    print()
+    print(
+        f"search box (unit-box coordinates map to these; A1 fixed at 1/max|u|): "
+        f"{result['search_box_u1']}"
+    )
+    notes = result["notes"]
     if scaled:
-        how = scaled[0]["scaled_by"]
-        print(
-            f"NOTE: SCALED RUN ({how}). {len(scaled)} of {len(swarms)} swarms ran "
-            "fewer iterations than the paper's G, with the inertia weight schedule "
-            "compressed to G'; the scale G'/G is in every row."
+        notes.append(
+            f"NOTE: SCALED RUN ({scaled[0]['scaled_by']}). {len(scaled)} of "
+            f"{len(swarms)} swarms ran fewer iterations than the paper's G, with the "
+            "inertia weight schedule compressed to G'; the scale G'/G is in every row."
         )
     else:
-        print("Every swarm ran the paper's full G.")
+        notes.append("Every swarm ran the paper's full G.")
     if args.swarm_stride != 1:
-        print(
+        notes.append(
             f"NOTE: the swarms simulated every {args.swarm_stride}th sample (the paper "
             "uses all); metrics are on all samples."
         )
+    print()
+    print("\n".join(notes))
     print()
     print("Figures 2-3 / Table 1: Bouc-Wen loops (output h), u = Amp sin(2 pi t)")
     print(

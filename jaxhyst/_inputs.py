@@ -176,13 +176,20 @@ class InputPath(eqx.Module):
     ) -> tuple[Float[Array, ""], Float[Array, ""]]:
         """(u, udot) at time `shift` after the point `frac` of `interval`.
 
-        The shifted point stays on the same interval whenever it can (so a zero shift
+        With linear interpolation the shifted input is the piecewise-linear path
+        through the shifted samples u(t_k + shift): on each interval its rate is the
+        secant between the interval's two shifted ends. The simulated output is then
+        continuous in `shift` (reading point rates at RK4 stages would move in
+        half-sample stairs as kinks cross the stage points) and a zero shift is
+        `on_interval` exactly. Otherwise (cubic): the shifted point stays on the same interval whenever it can (so a zero shift
         reproduces `on_interval` exactly, one-sided rate included); outside the record
         the path holds its end value with zero rate. Differentiable in `shift`: the
         rate's derivative is the input's curvature, smoothed over neighbouring samples
         (a piecewise-linear path has kinks, whose exact derivative would be zero almost
         everywhere and blind a gradient-based fit of the shift).
         """
+        if isinstance(self.interpolation, LinearInterpolation):
+            return _shifted_secant(self.values, self.dt, interval, frac, shift)
         return _shifted_read(
             self.interpolation, self.values, self.dt, interval, frac, shift
         )
@@ -198,6 +205,24 @@ class InputPath(eqx.Module):
         inside = (position >= 0) & (position <= last)
         u, udot = self.on_interval(interval, jnp.clip(frac, 0, 1))
         return u, jnp.where(inside, udot, 0)
+
+
+def _value_at(values, position):
+    """The piecewise-linear path through `values` at fractional sample `position`,
+    holding the end values outside the record."""
+    last = values.shape[0] - 1
+    position = jnp.clip(position, 0, last)
+    index = jnp.clip(jnp.floor(position), 0, last - 1).astype(jnp.int32)
+    weight = position - index
+    return values[index] + weight * (values[index + 1] - values[index])
+
+
+def _shifted_secant(values, dt, interval, frac, shift):
+    offset = shift / dt
+    left = _value_at(values, interval + offset)
+    right = _value_at(values, interval + 1 + offset)
+    slope = (right - left) / dt
+    return left + frac * dt * slope, slope * jnp.ones_like(frac)
 
 
 def _shifted_position(values, dt, interval, frac, shift):

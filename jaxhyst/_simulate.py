@@ -76,10 +76,16 @@ class RK4(AbstractSimulationSolver):
             k4 = rate(interval, f1, state + h * k3)
             return state + (h / 6) * (k1 + 2 * k2 + 2 * k3 + k4)
 
+        update = model.sample_update(inputs)
+
         def advance(state, interval):
             if m == 1:
-                return rk4_step(interval, 0, state)
-            return jax.lax.fori_loop(0, m, lambda j, s: rk4_step(interval, j, s), state)
+                end = rk4_step(interval, 0, state)
+            else:
+                end = jax.lax.fori_loop(
+                    0, m, lambda j, s: rk4_step(interval, j, s), state
+                )
+            return end if update is None else update(state, end, interval)
 
         return advance
 
@@ -98,6 +104,13 @@ class DiffraxSolver(AbstractSimulationSolver):
     max_steps: int = eqx.field(default=1_000_000, static=True)
 
     def states(self, model, inputs, initial_state):
+        if model.sample_update(inputs) is not None:
+            raise ValueError(
+                f"DiffraxSolver cannot integrate {type(model).__name__} in this "
+                "configuration: part of it is propagated exactly once per sample "
+                "(model.sample_update), which only RK4 applies. Use RK4()."
+            )
+
         def vector_field(t, state, path):
             return model.vector_field(t, state, model.drive(path, t))
 

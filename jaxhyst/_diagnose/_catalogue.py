@@ -22,9 +22,9 @@ CATALOGUE: dict[str, Effect] = {
     for effect in (
         Effect(
             "asymmetry",
-            ("eps", "quad", "cubic"),
+            ("eps", "quad", "cubic", "skew"),
             "the ascending and descending branches are not mirror images (the loop is "
-            "wider or bent differently at one end of the stroke)",
+            "wider, saturates sooner or is bent differently at one end of the stroke)",
         ),
         Effect(
             "input_bias",

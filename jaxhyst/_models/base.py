@@ -6,6 +6,7 @@ so the same model runs unchanged under the scan-RK4 simulator and under diffrax.
 """
 
 import abc
+from collections.abc import Callable
 from typing import ClassVar
 
 import equinox as eqx
@@ -37,6 +38,9 @@ class Drive(eqx.Module):
 
     u: Float[Array, ""]
     udot: Float[Array, ""]
+
+
+SampleUpdate = Callable[[Array, Array, Array], Array]
 
 
 class AbstractHysteresisModel(eqx.Module):
@@ -78,6 +82,18 @@ class AbstractHysteresisModel(eqx.Module):
     def initial_state(self, drive: Drive) -> Float[Array, " s"]:
         """The state at the first sample: a demagnetised (h = 0), resting system."""
         return jnp.zeros(self.state_size, jnp.result_type(drive.u))
+
+    def sample_update(self, inputs: InputPath) -> "SampleUpdate | None":
+        """An exact per-sample map applied after the ODE has been integrated across
+        each sample interval, or None (the default: the ODE is the whole model).
+
+        Models with fast *linear* parts (a stage seen through a mass-spring-damper)
+        use it to propagate those parts exactly over the interval instead of
+        integrating them with small RK4 steps. The returned function maps
+        (state at the interval's start, ODE state at its end, interval) to the state
+        at its end.
+        """
+        return None
 
     def parameters(self) -> dict[str, Array]:
         """The parameter values by name, in `parameter_names` order."""

@@ -9,7 +9,9 @@ import dataclasses
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
+import jax.scipy.linalg
 from jaxtyping import Array, Float
 
 from .._inputs import InputPath
@@ -22,6 +24,8 @@ class ExtendedPiezo(AbstractHysteresisModel):
     """`PiezoBoucWen` plus the catalogue's effects (all off at zero):
 
     - asymmetry:       hdot += eps*u*sign(udot)  (the paper's Delta_Phi);
+                       gamma1 -> gamma1 + skew*sign(h) (the loop saturates at
+                       different levels on its two sides);
                        y += quad*(c^2 - c0^2) + cubic*(c^3 - c0^3),
                        c = (u - input_center)/input_scale, c0 its value at u = 0
                        (a static nonlinearity bends one end of the stroke)
@@ -50,6 +54,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
     eps: Float[Array, ""] = parameter_field(default=0.0)
     quad: Float[Array, ""] = parameter_field(default=0.0)
     cubic: Float[Array, ""] = parameter_field(default=0.0)
+    skew: Float[Array, ""] = parameter_field(default=0.0)
     phi: Float[Array, ""] = parameter_field(default=0.0)
     rate_gain: Float[Array, ""] = parameter_field(default=0.0)
     viscous: Float[Array, ""] = parameter_field(default=0.0)
@@ -82,6 +87,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
         "eps",
         "quad",
         "cubic",
+        "skew",
         "phi",
         "rate_gain",
         "viscous",
@@ -160,22 +166,55 @@ class ExtendedPiezo(AbstractHysteresisModel):
     def vector_field(self, t, state, drive: ShiftedDrive):
         s = self.smoothing
         h = state[0]
-        hdot = hysteretic_rate(
-            s, h, drive.vdot, self.A1, self.beta1, self.gamma1, self.n
-        ) * (1 + self.rate_gain * s.abs(drive.udot) / self.rate_scale)
+        gamma = self.gamma1 + self.skew * s.sign(h)
+        hdot = hysteretic_rate(s, h, drive.vdot, self.A1, self.beta1, gamma, self.n) * (
+            1 + self.rate_gain * s.abs(drive.udot) / self.rate_scale
+        )
         hdot = hdot + self.eps * drive.u * s.sign(drive.udot)
         creep_rates = [
             (drive.u - state[1 + i]) / tau for i, tau in enumerate(self.creep_times)
         ]
-        if self.dynamic:
-            omega = 2 * jnp.pi * self.natural_frequency
-            target = self._static_output(t, state, drive)
-            y, yd = state[4], state[5]
-            ydd = omega**2 * (target - y) - 2 * self.damping_ratio * omega * yd
-        else:
-            yd = jnp.zeros_like(h)
-            ydd = jnp.zeros_like(h)
-        return jnp.stack([hdot, *creep_rates, yd, ydd])
+        # The stage (y, yd) is propagated exactly per sample in `sample_update`.
+        zero = jnp.zeros_like(h)
+        return jnp.stack([hdot, *creep_rates, zero, zero])
+
+    def sample_update(self, inputs):
+        """With `dynamic=True`: the stage ydd/omega^2 + (2 zeta/omega) yd + y = y_s,
+        propagated exactly over each sample interval for a static response y_s that
+        is linear between samples (first-order hold: exact for any resonance up to
+        and beyond Nyquist, at the cost of one 2x2 update per sample)."""
+        if not self.dynamic:
+            return None
+        dt = inputs.dt
+        dtype = inputs.values.dtype
+        omega = 2 * jnp.pi * jnp.asarray(self.natural_frequency, dtype)
+        zeta = jnp.asarray(self.damping_ratio, dtype)
+        zero, one = jnp.zeros((), dtype), jnp.ones((), dtype)
+        # d/ds [x, r, q] = [A x + B r, q/dt, 0] with r the static response, q its
+        # change over the interval; expm of this generator gives the hold map.
+        generator = jnp.stack(
+            [
+                jnp.stack([zero, one, zero, zero]),
+                jnp.stack([-(omega**2), -2 * zeta * omega, omega**2, zero]),
+                jnp.stack([zero, zero, zero, one / dt]),
+                jnp.stack([zero, zero, zero, zero]),
+            ]
+        )
+        hold = jax.scipy.linalg.expm(generator * dt)
+        transition, from_level, from_change = hold[:2, :2], hold[:2, 2], hold[:2, 3]
+
+        def update(start, end, interval):
+            def static(state, frac):
+                t = inputs.t0 + (interval + frac) * dt
+                drive = self.drive(inputs, t, interval, frac)
+                return self._static_output(t, state, drive)
+
+            level = static(start, zero)
+            change = static(end, one) - level
+            stage = transition @ start[4:6] + from_level * level + from_change * change
+            return end.at[4:6].set(stage)
+
+        return update
 
     def output(self, t, state, drive):
         if self.dynamic:
