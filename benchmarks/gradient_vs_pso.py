@@ -7,7 +7,8 @@ pi t) at 1 kHz (N = 10001), plus Gaussian noise of sigma = `--noise` * max|y|. S
 draws a new noise realisation and new optimiser randomness from `jax.random.key(s)`.
 The fitted model class contains the truth, so the RMSE of the true parameters on
 the recording is the floor. SUCCESS means a final RMSE <= `--tolerance` (default
-1.05) x the true-parameter RMSE on that recording.
+1.001) x the true-parameter RMSE on that recording (1.05 x, reported beside it as the
+"lax" criterion, still accepts fits 0.3 sigma from the truth).
 
 Methods (all in the same search space, `ParameterSpace.default`: the gauge A1 =
 1/max|u| fixed, bounds scaled to the data; the box is printed):

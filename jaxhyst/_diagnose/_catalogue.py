@@ -28,15 +28,15 @@ CATALOGUE: dict[str, Effect] = {
         ),
         Effect(
             "input_bias",
-            ("phi",),
+            ("phi", "input_lead", "input_time"),
             "the hysteresis responds to the input slightly early or late (a time "
             "shift of the drive as the operator sees it)",
         ),
         Effect(
             "rate_dependence",
-            ("rate_gain", "viscous"),
-            "the loop changes with how fast the input moves (it widens or rotates "
-            "at higher rates)",
+            ("rate_gain", "viscous", "rate_amplitude", "viscous_time"),
+            "the loop changes with how fast the input moves (it widens, opens or "
+            "rotates at higher rates)",
         ),
         Effect(
             "creep",
@@ -52,7 +52,7 @@ CATALOGUE: dict[str, Effect] = {
         ),
         Effect(
             "drift",
-            ("offset", "trend", "curvature"),
+            ("offset", "trend", "curvature", "wander"),
             "the output has an offset or slow wander that does not follow the input "
             "(sensor offset, thermal drift)",
         ),

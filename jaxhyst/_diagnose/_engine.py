@@ -209,6 +209,10 @@ def _bounds_around(model, names, natural_scales, fs, duration):
             bounds[name] = (2.0 / duration, 0.5 * fs)
         elif name == "damping_ratio":
             bounds[name] = (5e-3, 5.0)
+        elif name in ("viscous_time", "input_time"):
+            bounds[name] = (4.0 / fs, 2.0)
+        elif name == "input_lead":
+            bounds[name] = (-2.5, 3.0)
         elif name == "phi":
             reach = min(0.05 * duration, 0.5)
             bounds[name] = (value - reach, value + reach)
@@ -218,7 +222,11 @@ def _bounds_around(model, names, natural_scales, fs, duration):
         else:
             spread = 2 * abs(value) + 1e-12
             bounds[name] = (value - spread, value + spread)
-    log = [n for n in ("natural_frequency", "damping_ratio") if n in names]
+    log = [
+        n
+        for n in ("natural_frequency", "damping_ratio", "viscous_time", "input_time")
+        if n in names
+    ]
     return bounds, log
 
 
@@ -257,9 +265,23 @@ def _starting_points(effect, current, step, fs):
         )
         for scale in (0.25, 0.5, 1.0, 2.0, 4.0)
     ]
+    if effect == "rate_dependence" and step.get("viscous"):
+        # A viscoelastic element saturates above 1/time: longer times need more gain.
+        viscous = float(current.viscous) + step["viscous"]
+        models += [
+            current.replace(viscous=gain * viscous, viscous_time=time)
+            for time in (0.005, 0.01, 0.02, 0.05, 0.1)
+            for gain in (1.0, 2.0, 4.0)
+        ]
     if effect == "input_bias":
         shifts = [s * 1e-3 for s in (0.5, 1, 2, 5, 10, 20, 50, 100)]
         models += [current.replace(phi=sign * s) for s in shifts for sign in (1, -1)]
+        # A network between drive and actuator: an RC lag or a lead, 5-50 ms.
+        models += [
+            current.replace(input_lead=lead, input_time=time)
+            for lead in (-0.9, -0.5, 0.5, 1.0)
+            for time in (0.005, 0.02, 0.05)
+        ]
     return models
 
 
@@ -359,9 +381,12 @@ class _ActiveProblem(eqx.Module):
         return self.problem.rmse(self.full(z))
 
 
-def _holdout_blocks(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
+def _holdout_blocks(n: int, fraction: float, blocks: int = 30) -> np.ndarray:
     """Fit mask that holds out evenly spread blocks (about `fraction` of the samples),
-    so that slow effects are judged by interpolation, not extrapolation."""
+    so that slow effects are judged by interpolation, not extrapolation. Many short
+    blocks: every kind of excitation in the record (a sweep, a hold, a fast burst)
+    then lands on both sides, so the held-out error measures the physics, not how the
+    base model extrapolates to a segment it never saw."""
     held = max(1, round(fraction * blocks))
     chosen = np.round(np.linspace(1, blocks - 1, held)).astype(int)
     edges = np.linspace(0, n, blocks + 1).astype(int)

@@ -29,20 +29,29 @@ class ExtendedPiezo(AbstractHysteresisModel):
                        y += quad*(c^2 - c0^2) + cubic*(c^3 - c0^3),
                        c = (u - input_center)/input_scale, c0 its value at u = 0
                        (a static nonlinearity bends one end of the stroke)
-    - input_bias:      the hysteresis sees V(t) = u(t + phi)
-    - rate_dependence: hdot *= 1 + rate_gain*|udot|/rate_scale;  y += viscous*udot/rate_scale
+    - input_bias:      the hysteresis sees V = w + input_lead*(w - x), w(t) = u(t + phi),
+                       x' = (w - x)/input_time: a time shift seen through a
+                       first-order network (input_lead = -1: the RC low-pass of an
+                       amplifier driving the piezo capacitance; > 0: a phase lead)
+    - rate_dependence: hdot *= 1 + rate_gain*|udot|/rate_scale;
+                       A1 -> A1*(1 + rate_amplitude*log(1 + |udot|/rate_scale));
+                       y += viscous*(u - z)/(viscous_time*rate_scale),
+                       z' = (u - z)/viscous_time: a Kelvin-Voigt (viscoelastic)
+                       element, ~ viscous*udot/rate_scale below 1/viscous_time
+                       (faster cycles saturate sooner, open wider, or lag)
     - creep:           y += creep_fast*(c1 - u) + creep_slow*(c2 - u)
                             + creep_slower*(c3 - u),
                        ci' = (u - ci)/tau_i with tau = creep_times (0.3, 3, 30 s:
                        logarithmic creep spans decades)
-    - drift:           y += offset + trend*s + curvature*(s^2 - 1/3),
+    - drift:           y += offset + trend*s + curvature*(s^2 - 1/3)
+                            + wander*(5 s^3 - 3 s)/2  (Legendre terms),
                        s = (t - time_center)/time_scale in [-1, 1]
     - dynamics:        with `dynamic=True`, y is the static response seen through
                        ydd/omega^2 + (2 zeta/omega) yd + y = y_static (omega from
                        natural_frequency, zeta = damping_ratio)
 
     The *_center/*_scale fields normalise the effects to the recording and are not
-    fitted. State: (h, c1, c2, c3, y_dyn, yd_dyn).
+    fitted. State: (h, c1, c2, c3, y_dyn, yd_dyn, z, x).
     """
 
     k1: Float[Array, ""] = parameter_field()
@@ -56,14 +65,19 @@ class ExtendedPiezo(AbstractHysteresisModel):
     cubic: Float[Array, ""] = parameter_field(default=0.0)
     skew: Float[Array, ""] = parameter_field(default=0.0)
     phi: Float[Array, ""] = parameter_field(default=0.0)
+    input_lead: Float[Array, ""] = parameter_field(default=0.0)
+    input_time: Float[Array, ""] = parameter_field(default=1e-2)
     rate_gain: Float[Array, ""] = parameter_field(default=0.0)
     viscous: Float[Array, ""] = parameter_field(default=0.0)
+    rate_amplitude: Float[Array, ""] = parameter_field(default=0.0)
+    viscous_time: Float[Array, ""] = parameter_field(default=1e-3)
     creep_fast: Float[Array, ""] = parameter_field(default=0.0)
     creep_slow: Float[Array, ""] = parameter_field(default=0.0)
     creep_slower: Float[Array, ""] = parameter_field(default=0.0)
     offset: Float[Array, ""] = parameter_field(default=0.0)
     trend: Float[Array, ""] = parameter_field(default=0.0)
     curvature: Float[Array, ""] = parameter_field(default=0.0)
+    wander: Float[Array, ""] = parameter_field(default=0.0)
     natural_frequency: Float[Array, ""] = parameter_field(default=1e3)
     damping_ratio: Float[Array, ""] = parameter_field(default=0.7)
     input_center: Float[Array, ""] = parameter_field(default=0.0, kw_only=True)
@@ -89,18 +103,23 @@ class ExtendedPiezo(AbstractHysteresisModel):
         "cubic",
         "skew",
         "phi",
+        "input_lead",
+        "input_time",
         "rate_gain",
         "viscous",
+        "rate_amplitude",
+        "viscous_time",
         "creep_fast",
         "creep_slow",
         "creep_slower",
         "offset",
         "trend",
         "curvature",
+        "wander",
         "natural_frequency",
         "damping_ratio",
     )
-    state_size: ClassVar[int] = 6
+    state_size: ClassVar[int] = 8
 
     @classmethod
     def around(
@@ -121,6 +140,8 @@ class ExtendedPiezo(AbstractHysteresisModel):
             rate_scale=jnp.maximum(jnp.sqrt(jnp.mean(rate**2)), 1e-30),
             time_center=(inputs.t0 + inputs.t1) / 2,
             time_scale=(inputs.t1 - inputs.t0) / 2,
+            # Short: a nearly pure dashpot until a refit finds the element's time.
+            viscous_time=4 * inputs.dt,
             dynamic=dynamic,
             smoothing=base.smoothing,
         )
@@ -153,7 +174,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
             + self.k2 * h
             + self.quad * (centred**2 - at_rest**2)
             + self.cubic * (centred**3 - at_rest**3)
-            + self.viscous * drive.udot / self.rate_scale
+            + self.viscous * (u - state[6]) / (self.viscous_time * self.rate_scale)
             + self.creep_fast * (c_fast - u)
             + self.creep_slow * (c_slow - u)
             + self.creep_slower * (c_slower - u)
@@ -161,22 +182,31 @@ class ExtendedPiezo(AbstractHysteresisModel):
 
     def _drift(self, t):
         s = (t - self.time_center) / self.time_scale
-        return self.offset + self.trend * s + self.curvature * (s**2 - 1.0 / 3.0)
+        return (
+            self.offset
+            + self.trend * s
+            + self.curvature * (s**2 - 1.0 / 3.0)
+            + self.wander * (5 * s**3 - 3 * s) / 2
+        )
 
     def vector_field(self, t, state, drive: ShiftedDrive):
         s = self.smoothing
         h = state[0]
         gamma = self.gamma1 + self.skew * s.sign(h)
-        hdot = hysteretic_rate(s, h, drive.vdot, self.A1, self.beta1, gamma, self.n) * (
-            1 + self.rate_gain * s.abs(drive.udot) / self.rate_scale
-        )
+        relative_rate = s.abs(drive.udot) / self.rate_scale
+        amplitude = self.A1 * (1 + self.rate_amplitude * jnp.log1p(relative_rate))
+        input_rate = (drive.v - state[7]) / self.input_time
+        seen_rate = drive.vdot + self.input_lead * (drive.vdot - input_rate)
+        hdot = hysteretic_rate(s, h, seen_rate, amplitude, self.beta1, gamma, self.n)
+        hdot = hdot * (1 + self.rate_gain * relative_rate)
         hdot = hdot + self.eps * drive.u * s.sign(drive.udot)
         creep_rates = [
             (drive.u - state[1 + i]) / tau for i, tau in enumerate(self.creep_times)
         ]
         # The stage (y, yd) is propagated exactly per sample in `sample_update`.
         zero = jnp.zeros_like(h)
-        return jnp.stack([hdot, *creep_rates, zero, zero])
+        viscous_rate = (drive.u - state[6]) / self.viscous_time
+        return jnp.stack([hdot, *creep_rates, zero, zero, viscous_rate, input_rate])
 
     def sample_update(self, inputs):
         """With `dynamic=True`: the stage ydd/omega^2 + (2 zeta/omega) yd + y = y_s,
@@ -226,7 +256,8 @@ class ExtendedPiezo(AbstractHysteresisModel):
     def initial_state(self, drive):
         u = jnp.asarray(drive.u)
         zero = jnp.zeros_like(u)
-        state = jnp.stack([zero, u, u, u, zero, zero])
+        v = jnp.asarray(drive.v) if isinstance(drive, ShiftedDrive) else u
+        state = jnp.stack([zero, u, u, u, zero, zero, u, v])
         if self.dynamic:
             state = state.at[4].set(self._static_output(0.0, state, drive))
         return state
