@@ -2,6 +2,7 @@
 residual, refit the strongest candidates, keep an effect only if it earns its
 parameters on held-out data, and repeat until nothing significant is left."""
 
+import dataclasses
 import math
 import time
 from typing import Any
@@ -381,6 +382,15 @@ class _ActiveProblem(eqx.Module):
         return self.problem.rmse(self.full(z))
 
 
+def _switch_off(model: ExtendedPiezo, effect: str) -> ExtendedPiezo:
+    """`model` with one catalogue effect switched off (its gains at zero)."""
+    if effect == "dynamics":
+        return dataclasses.replace(model, dynamic=False)
+    # Time constants are inert once their gain is zero.
+    gains = [p for p in CATALOGUE[effect].parameters if not p.endswith("_time")]
+    return model.replace(**{p: 0.0 for p in gains})
+
+
 def _holdout_blocks(n: int, fraction: float, blocks: int = 30) -> np.ndarray:
     """Fit mask that holds out evenly spread blocks (about `fraction` of the samples),
     so that slow effects are judged by interpolation, not extrapolation. Many short
@@ -705,6 +715,54 @@ def diagnose(
             y - winner["predicted"], fit_mask
         ):
             current, predicted = winner["model"], winner["predicted"]
+
+    # Backward check: an effect adopted early can become redundant once a later one
+    # explains the same mismatch with the right form (e.g. a rate dependence that was
+    # standing in for an input network). Drop any that no longer earns its place.
+    dropped: list[str] = []
+    while len(findings) >= 2:
+        hold_now = _mse(y - predicted, hold_mask)
+        weakest = None
+        for finding in findings:
+            names = [p for p in free if p not in CATALOGUE[finding.effect].parameters]
+            try:
+                reduced = _refit(
+                    _switch_off(current, finding.effect),
+                    names,
+                    inputs,
+                    measured,
+                    weights,
+                    natural,
+                    fs,
+                    duration,
+                    max_steps=20,
+                )
+            except Exception:  # noqa: BLE001 - a failed refit keeps the effect
+                continue
+            reduced_pred = np.asarray(
+                _simulate_jit(reduced, inputs, _solver_for(reduced, 0.0), throw=False)
+            )
+            if not np.all(np.isfinite(reduced_pred)):
+                continue
+            loss = _mse(y - reduced_pred, hold_mask) - hold_now
+            change = np.sqrt(np.mean((reduced_pred - predicted)[hold_mask] ** 2))
+            n_eff_hold = neff_ratio * hold_mask.sum()
+            needed = max(
+                0.05 * _mse(y - reduced_pred, hold_mask),
+                3 * 2 * noise_sd * change / math.sqrt(n_eff_hold),
+            )
+            if loss < needed and (weakest is None or loss < weakest[1]):
+                weakest = (finding, loss, reduced, reduced_pred, names)
+        if weakest is None:
+            break
+        finding, _, current, predicted, free = weakest
+        findings = [f for f in findings if f is not finding]
+        dropped.append(finding.effect)
+        ambiguities.append(
+            f"{finding.effect} was adopted, then dropped: once "
+            f"{', '.join(f.effect for f in findings)} had been added it no longer "
+            "lowered the held-out error by more than its noise."
+        )
 
     final_model = current
     if findings:
