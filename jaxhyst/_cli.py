@@ -818,7 +818,7 @@ def _add_demo_parser(subparsers) -> None:
             "diagnose the missing physics and refit, and write DIR/report.md with "
             "the paper-style figures (DIR/figures/), a before/after table in the "
             "format of the paper's Tables 5/6, the findings with their evidence, "
-            "and DIR/recording.csv, DIR/fit.json, DIR/diagnosis.json. Takes about six "
+            "and DIR/recording.csv, DIR/fit.json, DIR/diagnosis.json. Takes about two "
             "minutes on two CPU cores, most of it in the diagnosis's refits."
         ),
     )
