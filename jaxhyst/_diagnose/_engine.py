@@ -492,6 +492,8 @@ def diagnose(
     ambiguities: list[str] = []
     rounds: list[list[dict[str, Any]]] = []
     threshold_cache: dict[int, float] = {}
+    natural: dict[str, float] = {}
+    neff_ratio, noise_sd = 1.0, 0.0
 
     for _ in range(max_effects):
         residual = y - predicted
@@ -526,6 +528,7 @@ def diagnose(
         sigma2 = float(np.var(_whiten(unexplained, ar)[len(ar) :]))
         noise_sd = float(np.std(unexplained))
         neff_ratio = _noise_ratio(unexplained, ar, sigma2)
+        n_eff_hold = neff_ratio * hold_mask.sum()
         scored = []
         for effect in remaining:
             params = CATALOGUE[effect].parameters
@@ -559,7 +562,13 @@ def diagnose(
         # from its best starting point, and held-out data decide.
         # Only the strongest few are worth a refit: weaker ones have never won a
         # round on their own (and each refit costs a short swarm plus LM).
-        candidates = [c for c in scored if c["significant"]][:MAX_REFITS_PER_ROUND]
+        significant = [c for c in scored if c["significant"]]
+        candidates = significant[:MAX_REFITS_PER_ROUND]
+        # The linearised score understates a resonance (its effect is far from linear
+        # in 1/omega^2), so a significant dynamics candidate is always refitted.
+        candidates += [
+            c for c in significant[MAX_REFITS_PER_ROUND:] if c["effect"] == "dynamics"
+        ]
         for cand in candidates:
             cand["start"], cand["start_mse"] = _best_start(
                 cand["effect"], current, cand["step"], inputs, y, fit_mask, fs
