@@ -831,7 +831,9 @@ def _evidence(effect: str, winner: dict[str, Any], where: dict[str, Any]) -> str
     specific = {
         "asymmetry": (
             f"mean residual {where['ascending']['mean']:.3g} on the ascending vs "
-            f"{where['descending']['mean']:.3g} on the descending branch"
+            f"{where['descending']['mean']:.3g} on the descending branch, and "
+            f"{where['extremes']['relative']:.2f}x the overall RMS at the extremes of "
+            "the stroke (a bend against the input)"
         ),
         "input_bias": (
             f"residual near reversals is {where['near_reversals']['relative']:.2f}x "
