@@ -63,6 +63,7 @@ from paper_cases import (  # noqa: E402
     CASE_SIZES,
     UM,
     VELOCITY_LIMIT,
+    check_outputs,
     jsonable,
     log,
     machine_info,
@@ -142,22 +143,6 @@ def parse_args(argv=None):
     if args.scale is not None and not args.scale > 0:
         parser.error("--scale must be positive")
     return args
-
-
-def check_outputs(args):
-    paths = []
-    if args.json:
-        paths.append(Path(args.json))
-    if args.plots:
-        folder = Path(args.plots)
-        if folder.exists() and not folder.is_dir():
-            raise SystemExit(f"error: --plots {folder} is a file, not a folder")
-        paths.append(folder / PLOT_NAME)
-    existing = [str(p) for p in paths if p.exists()]
-    if existing and not args.force:
-        raise SystemExit(
-            f"error: {', '.join(existing)} already exist(s); pass --force to replace"
-        )
 
 
 # ------------------------------------------------------------------------ traces
@@ -480,7 +465,7 @@ def plot(folder, runs, truths, tolerance, lax):
 
 def main(argv=None):
     args = parse_args(argv)
-    check_outputs(args)
+    check_outputs(args, plot_names=(PLOT_NAME,))
     started = time.perf_counter()
     info = machine_info()
     template = jh.PiezoBoucWen.paper_table4(3)

@@ -275,8 +275,9 @@ def print_machine(info, started):
     print(f"total wall time {time.perf_counter() - started:.1f} s")
 
 
-def check_outputs(args):
-    """Refuse to start when an output exists and --force is not given."""
+def check_outputs(args, plot_names=PLOT_NAMES):
+    """Refuse to start when an output (the JSON, or one of `plot_names` in the plots
+    folder) exists and --force is not given."""
     paths = []
     if args.json:
         paths.append(Path(args.json))
@@ -284,7 +285,7 @@ def check_outputs(args):
         folder = Path(args.plots)
         if folder.exists() and not folder.is_dir():
             raise SystemExit(f"error: --plots {folder} is a file, not a folder")
-        paths += [folder / name for name in PLOT_NAMES]
+        paths += [folder / name for name in plot_names]
     existing = [str(p) for p in paths if p.exists()]
     if existing and not args.force:
         raise SystemExit(

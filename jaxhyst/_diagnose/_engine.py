@@ -231,11 +231,9 @@ def _bounds_around(model, names, natural_scales, fs, duration):
     return bounds, log
 
 
-def _solver_for(model: ExtendedPiezo, dt: float) -> RK4:
-    """One RK4 step per sample: the quasi-static part is slow on the sample scale and
-    the stage (when `dynamic`) is propagated exactly per sample by the model."""
-    return RK4()
-
+# One RK4 step per sample: the quasi-static part is slow on the sample scale and the
+# stage (when `dynamic`) is propagated exactly per sample by the model.
+SOLVER = RK4()
 
 ALL_NAMES = tuple(n for n in ExtendedPiezo.parameter_names if n != "A1")
 STATIC_NAMES = tuple(
@@ -243,7 +241,21 @@ STATIC_NAMES = tuple(
 )
 
 
-_simulate_jit = eqx.filter_jit(simulate)
+@eqx.filter_jit
+def _predict_jit(model, inputs):
+    return simulate(model, inputs, SOLVER, throw=False)
+
+
+def _predict(model: ExtendedPiezo, inputs) -> np.ndarray:
+    """The model's output at every sample (NaN/inf where it diverges)."""
+    return np.asarray(_predict_jit(model, inputs))
+
+
+def _resolution(noise_sd: float, change: float, n_eff: float) -> float:
+    """How small a held-out MSE difference can be told from noise, for two fits
+    whose outputs differ by `change` (rms): ~3 x its standard error 2*sigma*change/
+    sqrt(N_eff)."""
+    return 3 * 2 * noise_sd * change / math.sqrt(n_eff)
 
 
 def _starting_points(effect, current, step, fs):
@@ -290,9 +302,7 @@ def _best_start(effect, current, step, inputs, y, mask, fs):
     """The starting point with the lowest error on the fitted samples."""
     best, best_mse = current, float("inf")
     for trial in _starting_points(effect, current, step, fs):
-        pred = np.asarray(
-            _simulate_jit(trial, inputs, _solver_for(trial, 0.0), throw=False)
-        )
+        pred = _predict(trial, inputs)
         if not np.all(np.isfinite(pred)):
             continue
         mse = float(np.mean((y - pred)[mask] ** 2))
@@ -321,7 +331,7 @@ def _refit(
     bounds, log = _bounds_around(model, ALL_NAMES, natural_scales, fs, duration)
     frozen = [n for n in ALL_NAMES if n not in names]
     space = ParameterSpace(model, bounds, log_scale=log, frozen=frozen)
-    solver = _solver_for(model, float(inputs.dt))
+    solver = SOLVER
     problem = Problem(space, inputs, measured, solver, weights)
     # Quasi-static fits see turning points, not the sample rate: 250 Hz is plenty.
     # A resonance needs >= 4 samples per period at its starting frequency.
@@ -483,7 +493,7 @@ def diagnose(
         )
         base = base_fit.model
     current = ExtendedPiezo.around(base, inputs)
-    predicted = np.asarray(_simulate_jit(current, inputs, throw=False))
+    predicted = _predict(current, inputs)
     base_predicted = predicted
     baseline = error_metrics(y, predicted)
     location = locate(t, np.asarray(recording.u), y - predicted)
@@ -494,10 +504,11 @@ def diagnose(
     threshold_cache: dict[int, float] = {}
     natural: dict[str, float] = {}
     neff_ratio, noise_sd = 1.0, 0.0
+    n_eff_hold = float(hold_mask.sum())
 
     for _ in range(max_effects):
         residual = y - predicted
-        solver = _solver_for(current, float(inputs.dt))
+        solver = SOLVER
         remaining = [e for e in EFFECT_NAMES if e not in {f.effect for f in findings}]
         static_names = [
             p for e in remaining if e != "dynamics" for p in CATALOGUE[e].parameters
@@ -608,11 +619,7 @@ def diagnose(
                     if entry["effect"] == effect:
                         entry["refit_error"] = str(error).splitlines()[0][:200]
                 continue
-            new_pred = np.asarray(
-                _simulate_jit(
-                    refit, inputs, _solver_for(refit, float(inputs.dt)), throw=False
-                )
-            )
+            new_pred = _predict(refit, inputs)
             if not np.all(np.isfinite(new_pred)):
                 for entry in round_summary:
                     if entry["effect"] == effect:
@@ -624,13 +631,12 @@ def diagnose(
                 _mse(new_res, hold_mask),
             )
             before_fit, after_fit = _mse(residual, fit_mask), _mse(new_res, fit_mask)
-            n_eff_hold = neff_ratio * hold_mask.sum()
             n_eff_fit = neff_ratio * fit_mask.sum()
             change = np.sqrt(np.mean((new_pred - predicted)[hold_mask] ** 2))
             # The held-out MSE drop must beat its own noise, ~2*sigma*rms(change)/sqrt(N_eff),
             # and be worth having (5 % of the MSE): small gains are spurious effects
             # soaking up what an adopted effect's form does not quite capture.
-            resolution = 3 * 2 * noise_sd * change / math.sqrt(n_eff_hold)
+            resolution = _resolution(noise_sd, change, n_eff_hold)
             margin = max(0.05 * before_hold, resolution)
             p = len(CATALOGUE[effect].parameters)
             bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(
@@ -679,7 +685,7 @@ def diagnose(
             apart = np.sqrt(
                 np.mean((other["predicted"] - winner["predicted"])[hold_mask] ** 2)
             )
-            resolution = 3 * 2 * noise_sd * apart / math.sqrt(n_eff_hold)
+            resolution = _resolution(noise_sd, apart, n_eff_hold)
             overlap = _max_canonical_correlation(
                 winner["candidate"]["directions"], other["candidate"]["directions"]
             )
@@ -717,9 +723,7 @@ def diagnose(
         current = _refit(
             winner["model"], free, inputs, measured, weights, natural, fs, duration
         )
-        predicted = np.asarray(
-            _simulate_jit(current, inputs, _solver_for(current, 0.0), throw=False)
-        )
+        predicted = _predict(current, inputs)
         if not np.all(np.isfinite(predicted)) or _mse(y - predicted, fit_mask) > _mse(
             y - winner["predicted"], fit_mask
         ):
@@ -728,7 +732,6 @@ def diagnose(
     # Backward check: an effect adopted early can become redundant once a later one
     # explains the same mismatch with the right form (e.g. a rate dependence that was
     # standing in for an input network). Drop any that no longer earns its place.
-    dropped: list[str] = []
     while len(findings) >= 2:
         hold_now = _mse(y - predicted, hold_mask)
         weakest = None
@@ -748,17 +751,14 @@ def diagnose(
                 )
             except Exception:  # noqa: BLE001 - a failed refit keeps the effect
                 continue
-            reduced_pred = np.asarray(
-                _simulate_jit(reduced, inputs, _solver_for(reduced, 0.0), throw=False)
-            )
+            reduced_pred = _predict(reduced, inputs)
             if not np.all(np.isfinite(reduced_pred)):
                 continue
             loss = _mse(y - reduced_pred, hold_mask) - hold_now
             change = np.sqrt(np.mean((reduced_pred - predicted)[hold_mask] ** 2))
-            n_eff_hold = neff_ratio * hold_mask.sum()
             needed = max(
                 0.05 * _mse(y - reduced_pred, hold_mask),
-                3 * 2 * noise_sd * change / math.sqrt(n_eff_hold),
+                _resolution(noise_sd, change, n_eff_hold),
             )
             if loss < needed and (weakest is None or loss < weakest[1]):
                 weakest = (finding, loss, reduced, reduced_pred, names)
@@ -766,7 +766,6 @@ def diagnose(
             break
         finding, _, current, predicted, free = weakest
         findings = [f for f in findings if f is not finding]
-        dropped.append(finding.effect)
         ambiguities.append(
             f"{finding.effect} was adopted, then dropped: once "
             f"{', '.join(f.effect for f in findings)} had been added it no longer "
@@ -778,14 +777,7 @@ def diagnose(
         final_model = _refit(
             current, free, inputs, measured, None, {}, fs, duration, max_steps=30
         )
-        final_pred = np.asarray(
-            _simulate_jit(
-                final_model,
-                inputs,
-                _solver_for(final_model, float(inputs.dt)),
-                throw=False,
-            )
-        )
+        final_pred = _predict(final_model, inputs)
         if not (
             np.all(np.isfinite(final_pred))
             and _mse(y - final_pred, slice(None)) <= _mse(y - predicted, slice(None))
