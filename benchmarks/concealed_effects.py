@@ -233,6 +233,13 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--progress", action="store_true", help="pass progress=True to diagnose"
     )
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        metavar="LABEL",
+        help="run only these configurations (e.g. creep+drift clean asymmetry); each "
+        "keeps the index, so the seed, it has in the whole suite",
+    )
     args = parser.parse_args(argv)
     defaults = (1, 12.0, 500.0) if args.quick else (3, 45.0, 1000.0)
     args.cases = defaults[0] if args.cases is None else args.cases
@@ -251,6 +258,8 @@ def main(argv=None) -> int:
     )
     results = []
     for index, spec in enumerate(specs):
+        if args.only and _label(spec["effects"]) not in args.only:
+            continue
         r = run_case(spec, index, args, diagnose)
         results.append(r)
         sizes = ", ".join(f"{k} {v:.1f}" for k, v in r["sizes"].items()) or "-"

@@ -40,6 +40,7 @@ from ._identify import (
     Problem as Problem,
     identifiability as identifiability,
     identify as identify,
+    swarm_samples_per_step as swarm_samples_per_step,
 )
 from ._inputs import (
     AbstractInterpolation as AbstractInterpolation,

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 import optimistix as optx
-from jaxtyping import Array, Float, PRNGKeyArray
+from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from ._inputs import InputPath
 from ._metrics import error_metrics
@@ -406,6 +406,57 @@ def _decimate(problem: Problem, stride: int) -> Problem:
     )
 
 
+def _swarm_problem(problem: Problem, stride: int) -> Problem:
+    """The swarm's cheaper copy of `problem`: RK4 steps of `stride` samples with dense
+    output where the solver and model allow it, else every `stride`-th sample."""
+    solver = problem.solver
+    if stride == 1:
+        return problem
+    if (
+        isinstance(solver, RK4)
+        and solver.substeps == 1
+        and solver.samples_per_step == 1
+        and problem.space.template.sample_update(problem.inputs) is None
+    ):
+        return eqx.tree_at(
+            lambda p: p.solver, problem, RK4(samples_per_step=stride)
+        )
+    return _decimate(problem, stride)
+
+
+def swarm_samples_per_step(
+    u: Float[ArrayLike, " n"],
+    *,
+    input_fraction: float = 0.01,
+    max_steps: int = 2000,
+    min_steps: int = 200,
+) -> int:
+    """How many samples one RK4 step of the swarm's objective spans (`identify`'s
+    default `swarm_stride`).
+
+    A rate-independent hysteresis state follows the input's path, so the step is
+    set by how far the input moves: as many samples as keep every step's input change
+    within `input_fraction` of the input's peak-to-peak range, but no coarser than
+    `min_steps` steps over the record. Long records are coarsened further to at most
+    `max_steps` steps (the swarm's cost), however fast the input. Lower
+    `input_fraction` if swarm and polish disagree on which basin is best.
+    """
+    u = np.asarray(u, dtype=float)
+    if u.ndim != 1 or u.size < 2:
+        raise ValueError(
+            f"swarm_samples_per_step: u must be 1-D with >= 2 samples, got shape "
+            f"{u.shape}."
+        )
+    intervals = u.size - 1
+    span = float(np.ptp(u))
+    largest = float(np.max(np.abs(np.diff(u))))
+    by_input = (
+        intervals if largest == 0 else int(input_fraction * span // largest)
+    )
+    by_input = min(by_input, intervals // min_steps)
+    return max(1, by_input, intervals // max_steps)
+
+
 def identify(
     model: AbstractHysteresisModel,
     recording: Recording,
@@ -431,9 +482,12 @@ def identify(
     - `swarm`: MPSO settings (None skips the swarm and polishes from `start`).
       `MPSO.paper_case(3)` reproduces the paper's schedule (slow; the default finds
       the same basin in a fraction of the time).
-    - `swarm_stride`: the swarm simulates every `stride`-th sample (default: enough to
-      keep ~2000 samples), since the loss landscape of a rate-independent model is
-      set by the turning points, not the sample rate. The polish uses all samples.
+    - `swarm_stride`: samples spanned by one RK4 step of the swarm's objective
+      (default `swarm_samples_per_step(recording.u)`): the loss landscape of a
+      rate-independent model is set by the input's path, not the sample rate. Every
+      sample is still compared (dense output, `RK4(samples_per_step=...)`); models
+      that `RK4(samples_per_step=...)` cannot run are decimated instead. The polish
+      integrates every sample.
     - `start`: a model to polish from (warm start) instead of, or in addition to, the
       swarm's best (the better of the two seeds the polish).
     - `stall_iterations`: stop the swarm when its best has not improved by 1e-4 of the
@@ -474,8 +528,8 @@ def identify(
     swarm_result = None
     seeds = []
     if swarm is not None:
-        stride = swarm_stride or max(1, recording.num_samples // 2000)
-        coarse = _decimate(problem, stride)
+        stride = swarm_stride or swarm_samples_per_step(recording.u)
+        coarse = _swarm_problem(problem, stride)
         swarm_result = run_swarm(
             _swarm_objective,
             jnp.zeros(space.dimension),

@@ -33,17 +33,40 @@ class RK4(AbstractSimulationSolver):
     inside one interval, so with piecewise-linear input the integrand is smooth on each
     step and the method keeps its 4th order. Raise `substeps` for stiff or fast dynamics
     (inertia, high-frequency content) relative to the sample rate.
+
+    `samples_per_step = k > 1` goes the other way: one RK4 step spans k sample
+    intervals, and the state at the samples inside a step is the cubic Hermite
+    interpolant of the step's end states and rates (dense output, 4th-order accurate
+    like the step itself), so every sample is still simulated and compared. It costs
+    about 1/k of the vector-field evaluations. Use it where the input varies slowly
+    on the scale of k samples (a swarm's objective on a finely sampled record); it
+    smears the rate kinks inside each step, so keep k = 1 for reference simulations.
     """
 
     substeps: int = eqx.field(default=1, static=True)
+    samples_per_step: int = eqx.field(default=1, static=True, kw_only=True)
 
     def __check_init__(self):
         if not isinstance(self.substeps, int) or self.substeps < 1:
             raise ValueError(
                 f"RK4(substeps={self.substeps!r}): substeps must be an integer >= 1."
             )
+        k = self.samples_per_step
+        if not isinstance(k, int) or isinstance(k, bool) or k < 1:
+            raise ValueError(
+                f"RK4(samples_per_step={k!r}): samples_per_step must be an integer "
+                ">= 1."
+            )
+        if k > 1 and self.substeps > 1:
+            raise ValueError(
+                f"RK4(substeps={self.substeps}, samples_per_step={k}): choose one; "
+                "substeps refines the step below the sample interval, samples_per_step "
+                "coarsens it above."
+            )
 
     def states(self, model, inputs, initial_state):
+        if self.samples_per_step > 1:
+            return self._coarse_states(model, inputs, initial_state)
         advance = self._advance(model, inputs)
 
         def over_interval(state, interval):
@@ -88,6 +111,72 @@ class RK4(AbstractSimulationSolver):
             return end if update is None else update(state, end, interval)
 
         return advance
+
+    def _coarse(self, model, inputs, initial_state):
+        """For `samples_per_step = k > 1`: `(steps, step, carry)` where `step(carry,
+        i)` advances over sample intervals [i*k, (i+1)*k) and returns the new carry
+        and the (k, s) states at samples i*k+1 .. (i+1)*k (by Hermite interpolation
+        inside the step; samples past the record's end are extrapolated, mask them)."""
+        if model.sample_update(inputs) is not None:
+            raise ValueError(
+                f"RK4(samples_per_step={self.samples_per_step}) cannot integrate "
+                f"{type(model).__name__} in this configuration: part of it is "
+                "propagated exactly once per sample (model.sample_update). Use "
+                "samples_per_step=1."
+            )
+        k = self.samples_per_step
+        n = inputs.num_samples
+        dtype = inputs.values.dtype
+        h = inputs.dt * k
+        last_interval = n - 2
+
+        def rate(position, state, from_left=False):
+            # `position` counts sample intervals from t0; at a sample instant the rate
+            # of the interval ahead is used, or of the one behind with `from_left`.
+            if from_left:
+                interval = jnp.ceil(position).astype(jnp.int32) - 1
+            else:
+                interval = jnp.floor(position).astype(jnp.int32)
+            interval = jnp.clip(interval, 0, last_interval)
+            frac = position - interval.astype(dtype)
+            t = inputs.t0 + position * inputs.dt
+            drive = model.drive(inputs, t, interval, frac)
+            return model.vector_field(t, state, drive)
+
+        theta = jnp.arange(1, k + 1, dtype=dtype) / k
+        # Cubic Hermite basis at the samples inside a step (the last one is the node).
+        h00 = 2 * theta**3 - 3 * theta**2 + 1
+        h10 = theta**3 - 2 * theta**2 + theta
+        h01 = -2 * theta**3 + 3 * theta**2
+        h11 = theta**3 - theta**2
+
+        def step(carry, i):
+            state, slope = carry
+            start = jnp.asarray(i * k, dtype)
+            # With k even the midpoint is a sample instant, where the input's rate
+            # may jump (a reversal): the two midpoint stages read it from either side.
+            k2 = rate(start + k / 2, state + (h / 2) * slope, from_left=True)
+            k3 = rate(start + k / 2, state + (h / 2) * k2)
+            k4 = rate(start + k, state + h * k3, from_left=True)
+            end = state + (h / 6) * (slope + 2 * k2 + 2 * k3 + k4)
+            end_slope = rate(start + k, end)
+            inside = (
+                h00[:, None] * state[None]
+                + (h * h10)[:, None] * slope[None]
+                + h01[:, None] * end[None]
+                + (h * h11)[:, None] * end_slope[None]
+            )
+            return (end, end_slope), inside
+
+        steps = -(-(n - 1) // k)
+        first_slope = rate(jnp.asarray(0, dtype), initial_state)
+        return steps, step, (initial_state, first_slope)
+
+    def _coarse_states(self, model, inputs, initial_state):
+        steps, step, carry = self._coarse(model, inputs, initial_state)
+        _, inside = jax.lax.scan(step, carry, jnp.arange(steps))
+        inside = inside.reshape(-1, initial_state.shape[0])
+        return jnp.concatenate([initial_state[None], inside])[: inputs.num_samples]
 
 
 class DiffraxSolver(AbstractSimulationSolver):
@@ -259,6 +348,27 @@ def sum_squared_error(
         t = inputs.t0 + inputs.dt * jnp.asarray(index, inputs.dt.dtype)
         return weights[index] * (model.output(t, state, drive) - measured[index])
 
+    first = weighted_error(0, initial_state)
+    if solver.samples_per_step > 1:
+        k = solver.samples_per_step
+        steps, step, carry = solver._coarse(model, inputs, initial_state)
+        offsets = jnp.arange(1, k + 1)
+
+        def over_step(carry, i):
+            (state, slope), total = carry
+            (state, slope), inside = step((state, slope), i)
+            index = i * k + offsets
+            valid = index < n
+            errors = jax.vmap(weighted_error)(jnp.minimum(index, n - 1), inside)
+            # `where`, not a product: past the record's end the state may be inf.
+            total = total + jnp.sum(jnp.where(valid, errors * errors, 0))
+            return ((state, slope), total), None
+
+        (_, total), _ = jax.lax.scan(
+            over_step, (carry, first * first), jnp.arange(steps)
+        )
+        return total
+
     advance = solver._advance(model, inputs)
 
     def over_interval(carry, interval):
@@ -267,7 +377,6 @@ def sum_squared_error(
         error = weighted_error(interval + 1, state)
         return (state, total + error * error), None
 
-    first = weighted_error(0, initial_state)
     (_, total), _ = jax.lax.scan(
         over_interval, (initial_state, first * first), jnp.arange(n - 1)
     )

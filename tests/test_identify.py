@@ -203,3 +203,48 @@ def test_standard_errors_match_parameter_scatter_units():
     assert ratio == pytest.approx(10.0, rel=1e-3)
     # And of the right size: well below the value, above zero.
     assert 0 < base.standard_errors["k1"] < 1e-2 * float(TRUTH.k1)
+
+
+def test_swarm_samples_per_step_follows_the_input():
+    t = np.arange(10001) / 1000.0
+    slow = 2 - 2 * np.cos(0.2 * np.pi * t)  # u1: 1.26e-3 V per sample, 4 V range
+    assert jh.swarm_samples_per_step(slow) == 31  # 1 % of the range per step
+    assert jh.swarm_samples_per_step(slow, input_fraction=0.001) == 5  # budget
+    assert (
+        jh.swarm_samples_per_step(slow, input_fraction=0.001, max_steps=10000) == 3
+    )
+    assert jh.swarm_samples_per_step(slow, min_steps=1000) == 10
+    fast = np.sin(2 * np.pi * 50 * t)  # 0.3 of the amplitude per sample
+    assert jh.swarm_samples_per_step(fast) == 5  # only the 2000-step budget
+    assert jh.swarm_samples_per_step(fast[:1001]) == 1
+    assert jh.swarm_samples_per_step(np.zeros(5000)) == 24  # no motion: min_steps
+    with pytest.raises(ValueError, match="1-D"):
+        jh.swarm_samples_per_step(np.zeros((3, 3)))
+
+
+def test_swarm_objective_uses_every_sample():
+    # The swarm's cheap objective (coarse RK4 steps, dense output) ranks like the
+    # full-resolution one and is close to it in value near a good fit.
+    from jaxhyst._identify import _swarm_problem
+
+    recording, _ = _recording(rate=1000.0)
+    problem = jh.Problem(
+        jh.ParameterSpace.default(
+            TEMPLATE,
+            float(np.max(np.abs(recording.u))),
+            float(np.max(np.abs(recording.y))),
+            recording.duration,
+        ),
+        recording.input_path(),
+        jnp.asarray(recording.y),
+        jh.RK4(),
+    )
+    coarse = _swarm_problem(problem, 5)
+    assert coarse.solver == jh.RK4(samples_per_step=5)
+    assert coarse.measured.shape == problem.measured.shape
+    z = jax.random.uniform(jax.random.key(0), (64, problem.space.dimension))
+    fine = np.asarray(jax.vmap(problem.rmse)(z))
+    cheap = np.asarray(jax.vmap(coarse.rmse)(z))
+    ok = np.isfinite(fine)
+    assert np.array_equal(ok, np.isfinite(cheap))
+    assert np.array_equal(np.argsort(fine[ok]), np.argsort(cheap[ok]))
