@@ -357,7 +357,15 @@ def _refit(
             _problem_rmse(problem, z0)
         ):
             z0 = swarm.best_x
-    active = _ActiveProblem.build(problem, z0, [ALL_NAMES.index(n) for n in names])
+    # Decimated quasi-static fits (screening, converging, final) come in many free
+    # sets and are cheap per step: one padded size for all of them. Full-rate ones
+    # (a stage resonance) are expensive per tangent: the tightest size.
+    active = _ActiveProblem.build(
+        problem,
+        z0,
+        [ALL_NAMES.index(n) for n in names],
+        smallest=11 if problem.measured.size < inputs.num_samples else 8,
+    )
     result = LevenbergMarquardtPolish(max_steps=max_steps).run(active, active.start())
     return space.to_model(active.full(result.z))
 
@@ -372,8 +380,12 @@ class _ActiveProblem(eqx.Module):
     index: jax.Array
 
     @classmethod
-    def build(cls, problem, z0, free_index):
-        size = next(k for k in (8, 11, 14, len(ALL_NAMES)) if k >= len(free_index))
+    def build(cls, problem, z0, free_index, smallest=8):
+        # Few distinct sizes, so that fits over different free sets share one
+        # compiled program (each costs seconds to compile; a padded coordinate costs
+        # one tangent per Jacobian).
+        sizes = [k for k in (8, 11, 14, len(ALL_NAMES)) if k >= smallest]
+        size = next(k for k in sizes if k >= len(free_index))
         padding = [len(ALL_NAMES)] * (size - len(free_index))
         return cls(problem, jnp.asarray(z0), jnp.asarray(list(free_index) + padding))
 
@@ -774,8 +786,11 @@ def diagnose(
 
     final_model = current
     if findings:
+        # Unit weights rather than None: the same structure as the masked refits,
+        # so this fit reuses their compiled Levenberg-Marquardt program.
+        all_samples = jnp.ones_like(weights)
         final_model = _refit(
-            current, free, inputs, measured, None, {}, fs, duration, max_steps=30
+            current, free, inputs, measured, all_samples, {}, fs, duration, max_steps=30
         )
         final_pred = _predict(final_model, inputs)
         if not (
