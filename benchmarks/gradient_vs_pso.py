@@ -33,12 +33,12 @@ Clocks and counts. Times exclude JIT compilation: every polish is warmed up once
 the first recording before anything is timed, and the swarms' own measured compile
 time is subtracted from their wall time (compile times are reported apart). Within a
 run, a swarm's time is spread evenly over its iterations, a polish's over its
-chunks of steps. Evaluations count full-recording simulations: a swarm particle on a
-k-times decimated copy counts 1/k; a Levenberg-Marquardt step 1 + d (residuals plus
+chunks of steps. Evaluations count full-recording simulations: a swarm particle whose RK4
+steps span k samples counts 1/k; a Levenberg-Marquardt step 1 + d (residuals plus
 d forward-mode Jacobian columns, d = 5 free parameters); a BFGS or Adam step 2
 (value and reverse-mode gradient); plus one per RMSE check of the polish driver.
-During the swarm phase of "swarm + ..." the RMSE is the swarm's, on its decimated
-copy (drawn dotted); success is only ever judged on all samples.
+During the swarm phase of "swarm + ..." the RMSE is the swarm's, with its coarse
+RK4 steps (drawn dotted); success is only ever judged on all samples.
 
     python benchmarks/gradient_vs_pso.py --quick
     python benchmarks/gradient_vs_pso.py --seeds 5 --json gvp.json --plots gvp
@@ -253,9 +253,9 @@ def short_swarm(rec, space, key):
 def run_polish_after(fit, polish, step_cost, chunk, rec, problem, samples):
     """The shared swarm's trace, then `polish` from its best."""
     trace = Trace(samples)
-    stride = max(1, rec.num_samples // 2000)  # identify's default swarm stride
-    coarse = len(range(0, rec.num_samples, stride))
-    add_swarm(trace, fit.swarm, coarse, full=stride == 1)
+    k = jh.swarm_samples_per_step(rec.u)  # identify's default swarm RK4 step
+    rk4_steps = -(-(rec.num_samples - 1) // k)
+    add_swarm(trace, fit.swarm, rk4_steps + 1, full=k == 1)
     result = polish.run(problem, fit.swarm.best_x)
     add_polish(trace, result, step_cost, chunk)
     return trace, {
@@ -455,7 +455,7 @@ def plot(folder, runs, truths, tolerance, lax):
     axes[0].legend(fontsize="small")
     fig.suptitle(
         f"Paper-like u1 recording, {len(truths)} seed(s): best RMSE so far "
-        "(dotted: a swarm on its decimated copy)"
+        "(dotted: a swarm with its coarse RK4 steps)"
     )
     path = folder / PLOT_NAME
     fig.savefig(path, dpi=110)

@@ -1,7 +1,8 @@
 """Identify a model from a recording: swarm (MPSO) -> gradient polish -> Fit.
 
-The swarm searches the unit box of a `ParameterSpace` (optionally on a decimated copy
-of the recording, which rate-independent models barely notice); the polish runs
+The swarm searches the unit box of a `ParameterSpace` with RK4 steps spanning several
+samples (every sample still compared; rate-independent models barely notice the coarser
+integration); the polish runs
 optimistix Levenberg-Marquardt (or BFGS, or optax Adam) on the full recording from the
 swarm's best; identifiability is read off the Jacobian at the result.
 """
@@ -418,9 +419,7 @@ def _swarm_problem(problem: Problem, stride: int) -> Problem:
         and solver.samples_per_step == 1
         and problem.space.template.sample_update(problem.inputs) is None
     ):
-        return eqx.tree_at(
-            lambda p: p.solver, problem, RK4(samples_per_step=stride)
-        )
+        return eqx.tree_at(lambda p: p.solver, problem, RK4(samples_per_step=stride))
     return _decimate(problem, stride)
 
 
@@ -450,9 +449,7 @@ def swarm_samples_per_step(
     intervals = u.size - 1
     span = float(np.ptp(u))
     largest = float(np.max(np.abs(np.diff(u))))
-    by_input = (
-        intervals if largest == 0 else int(input_fraction * span // largest)
-    )
+    by_input = intervals if largest == 0 else int(input_fraction * span // largest)
     by_input = min(by_input, intervals // min_steps)
     return max(1, by_input, intervals // max_steps)
 

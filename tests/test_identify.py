@@ -210,9 +210,7 @@ def test_swarm_samples_per_step_follows_the_input():
     slow = 2 - 2 * np.cos(0.2 * np.pi * t)  # u1: 1.26e-3 V per sample, 4 V range
     assert jh.swarm_samples_per_step(slow) == 31  # 1 % of the range per step
     assert jh.swarm_samples_per_step(slow, input_fraction=0.001) == 5  # budget
-    assert (
-        jh.swarm_samples_per_step(slow, input_fraction=0.001, max_steps=10000) == 3
-    )
+    assert jh.swarm_samples_per_step(slow, input_fraction=0.001, max_steps=10000) == 3
     assert jh.swarm_samples_per_step(slow, min_steps=1000) == 10
     fast = np.sin(2 * np.pi * 50 * t)  # 0.3 of the amplitude per sample
     assert jh.swarm_samples_per_step(fast) == 5  # only the 2000-step budget

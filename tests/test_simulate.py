@@ -113,9 +113,7 @@ def test_coarse_steps_agree_with_sample_steps(k):
         y = jh.simulate(model, path)
         y_k = jh.simulate(model, path, jh.RK4(samples_per_step=k))
         assert y_k.shape == y.shape
-        assert float(jnp.max(jnp.abs(y_k - y))) < tolerance * float(
-            jnp.max(jnp.abs(y))
-        )
+        assert float(jnp.max(jnp.abs(y_k - y))) < tolerance * float(jnp.max(jnp.abs(y)))
 
 
 def test_coarse_steps_bad_arguments():
