@@ -84,3 +84,39 @@ def test_diagnose_rejects_bad_input():
     case = _case((), duration=2.0, rate=100.0)
     with pytest.raises(ValueError, match="holdout_fraction"):
         jh.diagnose(case.recording, key=jax.random.key(0), holdout_fraction=0.9)
+
+
+def test_near_miss_overlapping_an_adopted_effect_is_reported():
+    from jaxhyst._diagnose._engine import _standing_in
+
+    t = np.linspace(0.0, 45.0, 4501)
+    slow_mode = np.stack([1 - np.exp(-t / 30.0)], axis=1)  # an adopted creep mode
+    thermal = np.stack([1 - np.exp(-t / 22.0), t / 45.0], axis=1)
+    unrelated = np.stack([np.sin(2 * np.pi * t)], axis=1)
+
+    def result(effect, after, accepted=False, resolution=0.01, bic=-10.0):
+        validation = {
+            "heldout_rmse_before": 1.05,
+            "heldout_rmse_after": after,
+            "heldout_resolution_mse": resolution,
+            "bic_change": bic,
+            "accepted": accepted,
+        }
+        return {"candidate": {"effect": effect}, "validation": validation}
+
+    projected = {"drift": (thermal, None), "asymmetry": (unrelated, None)}
+    adopted = {"creep": slow_mode}
+    near = [result("drift", 1.03)]  # 4 % gain: beyond its noise, under 5 %
+    messages = _standing_in(near, projected, adopted)
+    assert len(messages) == 1
+    assert (
+        messages[0].startswith("drift may also be present") and "creep" in messages[0]
+    )
+    # Not reported: a gain within the noise, a worse BIC, an accepted candidate,
+    # or a signature unlike any adopted effect's.
+    assert (
+        _standing_in([result("drift", 1.03, resolution=0.1)], projected, adopted) == []
+    )
+    assert _standing_in([result("drift", 1.03, bic=5.0)], projected, adopted) == []
+    assert _standing_in([result("drift", 1.0, accepted=True)], projected, adopted) == []
+    assert _standing_in([result("asymmetry", 1.03)], projected, adopted) == []

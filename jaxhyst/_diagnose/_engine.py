@@ -197,6 +197,53 @@ def _max_canonical_correlation(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.svd(qa.T @ qb, compute_uv=False).max(initial=0.0))
 
 
+def _moving_columns(cols: np.ndarray) -> np.ndarray:
+    """`cols` without the columns that are zero (parameters that move nothing)."""
+    norms = np.linalg.norm(cols, axis=0)
+    return cols[:, norms > 1e-9 * max(float(norms.max(initial=0.0)), 1e-300)]
+
+
+def _effect_columns(effect: str, column: dict[str, np.ndarray]) -> np.ndarray:
+    """The output's sensitivities to an effect's parameters (those that move it)."""
+    names = [p for p in CATALOGUE[effect].parameters if p in column]
+    if not names:
+        return np.zeros((0, 0))
+    return _moving_columns(np.stack([column[p] for p in names], axis=1))
+
+
+def _standing_in(results, projected, adopted: dict[str, np.ndarray]) -> list[str]:
+    """Ambiguities for rejected candidates that beat the held-out noise and the
+    information criterion, and failed only the 5 % floor, while their signature
+    overlaps an adopted effect's: the adopted effect may be standing in for them
+    (e.g. a slow creep mode and a thermal drift on a record whose input mean is
+    steady)."""
+    messages = []
+    for result in results:
+        v = result["validation"]
+        gain = v["heldout_rmse_before"] ** 2 - v["heldout_rmse_after"] ** 2
+        if v["accepted"] or gain <= v["heldout_resolution_mse"] or v["bic_change"] >= 0:
+            continue
+        effect = result["candidate"]["effect"]
+        raw = _moving_columns(projected[effect][0])
+        for name, cols in adopted.items():
+            if raw.shape[1] == 0 or cols.shape[1] == 0:
+                continue
+            overlap = _max_canonical_correlation(raw, cols)
+            if overlap > 0.9:
+                percent = 100 * gain / v["heldout_rmse_before"] ** 2
+                messages.append(
+                    f"{effect} may also be present: adding it lowered the held-out "
+                    f"error by {percent:.1f} % (more than its noise, and the "
+                    "information criterion agrees), short of the 5 % adoption needs; "
+                    f"its signature overlaps that of {name} (canonical correlation "
+                    f"{overlap:.2f}), which may be standing in for part of it. Hold "
+                    "the input at different levels and vary the rates to separate "
+                    "them."
+                )
+                break
+    return messages
+
+
 # ------------------------------------------------------------------------- refits
 
 
@@ -683,6 +730,8 @@ def diagnose(
                     entry["validation"] = result["validation"]
         accepted = [r for r in results if r["validation"]["accepted"]]
         if not accepted:
+            adopted = {f.effect: _effect_columns(f.effect, column) for f in findings}
+            ambiguities += _standing_in(results, projected, adopted)
             break
         accepted.sort(key=lambda r: r["validation"]["heldout_rmse_after"])
         winner = accepted[0]
