@@ -104,7 +104,7 @@ def test_near_miss_overlapping_an_adopted_effect_is_reported():
         }
         return {"candidate": {"effect": effect}, "validation": validation}
 
-    projected = {"drift": (thermal, None), "asymmetry": (unrelated, None)}
+    projected = {"drift": thermal, "asymmetry": unrelated}
     adopted = {"creep": slow_mode}
     near = [result("drift", 1.03)]  # 4 % gain: beyond its noise, under 5 %
     messages = _standing_in(near, projected, adopted)

@@ -211,10 +211,13 @@ def _effect_columns(effect: str, column: dict[str, np.ndarray]) -> np.ndarray:
     return _moving_columns(np.stack([column[p] for p in names], axis=1))
 
 
-def _standing_in(results, projected, adopted: dict[str, np.ndarray]) -> list[str]:
+def _standing_in(
+    results, signatures: dict[str, np.ndarray], adopted: dict[str, np.ndarray]
+) -> list[str]:
     """Ambiguities for rejected candidates that beat the held-out noise and the
     information criterion, and failed only the 5 % floor, while their signature
-    overlaps an adopted effect's: the adopted effect may be standing in for them
+    (`signatures[effect]`: output sensitivities, columns) overlaps an adopted
+    effect's (`adopted[effect]`): the adopted effect may be standing in for them
     (e.g. a slow creep mode and a thermal drift on a record whose input mean is
     steady)."""
     messages = []
@@ -224,7 +227,7 @@ def _standing_in(results, projected, adopted: dict[str, np.ndarray]) -> list[str
         if v["accepted"] or gain <= v["heldout_resolution_mse"] or v["bic_change"] >= 0:
             continue
         effect = result["candidate"]["effect"]
-        raw = _moving_columns(projected[effect][0])
+        raw = _moving_columns(signatures[effect])
         for name, cols in adopted.items():
             if raw.shape[1] == 0 or cols.shape[1] == 0:
                 continue
@@ -730,8 +733,18 @@ def diagnose(
                     entry["validation"] = result["validation"]
         accepted = [r for r in results if r["validation"]["accepted"]]
         if not accepted:
-            adopted = {f.effect: _effect_columns(f.effect, column) for f in findings}
-            ambiguities += _standing_in(results, projected, adopted)
+            # Signatures compared beyond what the base model's own parameters
+            # explain (both sides are largely functions of the input otherwise).
+            base_only = np.stack([column[p] for p in BASE_FREE], axis=1)
+            adopted = {
+                f.effect: _project_off(base_only, _effect_columns(f.effect, column), w)
+                for f in findings
+            }
+            candidates_raw = {
+                effect: _project_off(base_only, cols, w)
+                for effect, (cols, _) in projected.items()
+            }
+            ambiguities += _standing_in(results, candidates_raw, adopted)
             break
         accepted.sort(key=lambda r: r["validation"]["heldout_rmse_after"])
         winner = accepted[0]
