@@ -48,8 +48,8 @@ from ._inputs import InputPath
 from ._models.base import (
     AbstractHysteresisModel,
     Drive,
+    as_parameter,
     hysteretic_rate,
-    parameter_field,
 )
 from ._models.bouc_wen import PiezoBoucWen
 from ._recording import Recording
@@ -101,7 +101,7 @@ class BranchBeta(eqx.Module):
     paper-like class (A1 < 0, beta1 - gamma1 > 0) BIBO-stable.
     """
 
-    split: Float[Array, ""] = parameter_field(default=0.0)
+    split: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
 
     def beta(self, beta1, vdot, smoothing: AbstractSmoothing):
         return beta1 * (1 + self.split * smoothing.sign(vdot))
@@ -117,10 +117,10 @@ class CubicStatic(eqx.Module):
     it was built for. `coefficient` is in output units; 0 is off.
     """
 
-    coefficient: Float[Array, ""] = parameter_field(default=0.0)
-    centre: Float[Array, ""] = parameter_field(default=0.0)
-    scale: Float[Array, ""] = parameter_field(default=1.0)
-    slope: Float[Array, ""] = parameter_field(default=0.0)
+    coefficient: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    centre: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    scale: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
+    slope: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
 
     def __check_init__(self):
         _check("CubicStatic", "scale", self.scale, "positive", "pass the input span.")
@@ -141,8 +141,8 @@ class PhaseFilter(eqx.Module):
     `shift > 0` a phase lead (advance). `shift = 0` is off (V = u exactly).
     """
 
-    shift: Float[Array, ""] = parameter_field(default=0.0)
-    lag: Float[Array, ""] = parameter_field(default=1.0)
+    shift: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    lag: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
 
     def __check_init__(self):
         _check("PhaseFilter", "lag", self.lag, "positive", "pass seconds, e.g. 0.01.")
@@ -159,8 +159,8 @@ class RateAmplitude(eqx.Module):
     rate, A1 -> A1 * (1 + gain * sqrt(|Vdot| / rate_scale)), so faster cycles give
     wider loops. `gain = 0` is off."""
 
-    gain: Float[Array, ""] = parameter_field(default=0.0)
-    rate_scale: Float[Array, ""] = parameter_field(default=1.0)
+    gain: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    rate_scale: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
 
     def __check_init__(self):
         _check("RateAmplitude", "rate_scale", self.rate_scale, "positive")
@@ -177,8 +177,8 @@ class KelvinElement(eqx.Module):
     which lags the output by ~gain*tau*udot at low rates and saturates above 1/tau.
     `gain = 0` is off."""
 
-    gain: Float[Array, ""] = parameter_field(default=0.0)
-    tau: Float[Array, ""] = parameter_field(default=1.0)
+    gain: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    tau: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
 
     def __check_init__(self):
         _check("KelvinElement", "tau", self.tau, "positive", "pass seconds.")
@@ -192,10 +192,12 @@ class PronyCreep(eqx.Module):
     with times spread over decades (0.05 s to 30 s); after a step the output keeps
     growing roughly with log(t). `coefficient = 0` is off."""
 
-    coefficient: Float[Array, ""] = parameter_field(default=0.0)
-    times: Float[Array, " modes"] = parameter_field(default=_CREEP_TIMES)
-    weights: Float[Array, " modes"] = parameter_field(
-        default=(1.0 / _CREEP_MODES,) * _CREEP_MODES
+    coefficient: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    times: Float[Array, " modes"] = eqx.field(
+        converter=as_parameter, default=_CREEP_TIMES
+    )
+    weights: Float[Array, " modes"] = eqx.field(
+        converter=as_parameter, default=(1.0 / _CREEP_MODES,) * _CREEP_MODES
     )
 
     def __check_init__(self):
@@ -217,9 +219,9 @@ class ModalResonance(eqx.Module):
 
     with y_s the quasi-static output. `participation = 0` is off."""
 
-    participation: Float[Array, ""] = parameter_field(default=0.0)
-    natural_frequency: Float[Array, ""] = parameter_field(default=1.0)
-    damping_ratio: Float[Array, ""] = parameter_field(default=1.0)
+    participation: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    natural_frequency: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
+    damping_ratio: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
 
     def __check_init__(self):
         _check(
@@ -236,11 +238,11 @@ class ThermalDrift(eqx.Module):
 
     zero at t = 0. `scale = 0` is off."""
 
-    scale: Float[Array, ""] = parameter_field(default=0.0)
-    time_constant: Float[Array, ""] = parameter_field(default=1.0)
-    sine_ratio: Float[Array, ""] = parameter_field(default=0.0)
-    period: Float[Array, ""] = parameter_field(default=1.0)
-    phase: Float[Array, ""] = parameter_field(default=0.0)
+    scale: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    time_constant: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
+    sine_ratio: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    period: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
+    phase: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
 
     def __check_init__(self):
         _check("ThermalDrift", "time_constant", self.time_constant, "positive")

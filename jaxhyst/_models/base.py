@@ -20,17 +20,15 @@ from .._smoothing import AbstractSmoothing
 
 def as_parameter(value: ArrayLike) -> Array:
     """A parameter value as a strongly typed JAX array. Python scalars would give
-    weakly typed arrays, and a weak/strong mismatch between calls recompiles."""
+    weakly typed arrays, and a weak/strong mismatch between calls recompiles.
+
+    Model parameters are declared `eqx.field(converter=as_parameter)`: stored as
+    arrays, so changing their values never recompiles, while the constructor (and a
+    type checker) accepts floats."""
     array = jnp.asarray(value)
     if not jnp.issubdtype(array.dtype, jnp.inexact):
         array = array.astype(jnp.result_type(float))
     return jnp.asarray(array, dtype=array.dtype)
-
-
-def parameter_field(**kwargs):
-    """A model parameter: stored as a JAX array so that changing its value never
-    triggers recompilation."""
-    return eqx.field(converter=as_parameter, **kwargs)
 
 
 class Drive(eqx.Module):

@@ -12,8 +12,8 @@ from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
     AbstractHysteresisModel,
     Drive,
+    as_parameter,
     hysteretic_rate,
-    parameter_field,
     read_input,
 )
 
@@ -29,13 +29,13 @@ class BoucWen(AbstractHysteresisModel):
     hdot = (A*udot - beta*|udot|*|h|^(n-1)*h - gamma*udot*|h|^n) / D
     """
 
-    k: Float[Array, ""] = parameter_field()
-    alpha: Float[Array, ""] = parameter_field()
-    D: Float[Array, ""] = parameter_field()
-    A: Float[Array, ""] = parameter_field()
-    beta: Float[Array, ""] = parameter_field()
-    gamma: Float[Array, ""] = parameter_field()
-    n: Float[Array, ""] = parameter_field()
+    k: Float[Array, ""] = eqx.field(converter=as_parameter)
+    alpha: Float[Array, ""] = eqx.field(converter=as_parameter)
+    D: Float[Array, ""] = eqx.field(converter=as_parameter)
+    A: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta: Float[Array, ""] = eqx.field(converter=as_parameter)
+    gamma: Float[Array, ""] = eqx.field(converter=as_parameter)
+    n: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = _smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
@@ -78,12 +78,12 @@ class PiezoBoucWen(AbstractHysteresisModel):
     six parameters is not identifiable from y alone; fix a gauge (e.g. A1) when fitting.
     """
 
-    k1: Float[Array, ""] = parameter_field()
-    k2: Float[Array, ""] = parameter_field()
-    A1: Float[Array, ""] = parameter_field()
-    beta1: Float[Array, ""] = parameter_field()
-    gamma1: Float[Array, ""] = parameter_field()
-    n: Float[Array, ""] = parameter_field()
+    k1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    k2: Float[Array, ""] = eqx.field(converter=as_parameter)
+    A1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    gamma1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    n: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = _smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
@@ -150,14 +150,14 @@ class CorrectedPiezoBoucWen(AbstractHysteresisModel):
     the record). With phi = eps = 0 this is exactly `PiezoBoucWen`.
     """
 
-    k1: Float[Array, ""] = parameter_field()
-    k2: Float[Array, ""] = parameter_field()
-    A1: Float[Array, ""] = parameter_field()
-    beta1: Float[Array, ""] = parameter_field()
-    gamma1: Float[Array, ""] = parameter_field()
-    n: Float[Array, ""] = parameter_field()
-    phi: Float[Array, ""] = parameter_field(default=0.0)
-    eps: Float[Array, ""] = parameter_field(default=0.0)
+    k1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    k2: Float[Array, ""] = eqx.field(converter=as_parameter)
+    A1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    gamma1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    n: Float[Array, ""] = eqx.field(converter=as_parameter)
+    phi: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    eps: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     smoothing: AbstractSmoothing = _smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
@@ -214,14 +214,14 @@ class PiezoStage(AbstractHysteresisModel):
     c*yd neglected"). State: (y, yd, h); it starts at rest in static equilibrium.
     """
 
-    k1: Float[Array, ""] = parameter_field()
-    k2: Float[Array, ""] = parameter_field()
-    A1: Float[Array, ""] = parameter_field()
-    beta1: Float[Array, ""] = parameter_field()
-    gamma1: Float[Array, ""] = parameter_field()
-    n: Float[Array, ""] = parameter_field()
-    natural_frequency: Float[Array, ""] = parameter_field()
-    damping_ratio: Float[Array, ""] = parameter_field()
+    k1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    k2: Float[Array, ""] = eqx.field(converter=as_parameter)
+    A1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    gamma1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    n: Float[Array, ""] = eqx.field(converter=as_parameter)
+    natural_frequency: Float[Array, ""] = eqx.field(converter=as_parameter)
+    damping_ratio: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = _smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (

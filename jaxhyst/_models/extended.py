@@ -16,7 +16,12 @@ from jaxtyping import Array, Float
 
 from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
-from .base import AbstractHysteresisModel, hysteretic_rate, parameter_field, read_input
+from .base import (
+    AbstractHysteresisModel,
+    as_parameter,
+    hysteretic_rate,
+    read_input,
+)
 from .bouc_wen import PiezoBoucWen, ShiftedDrive
 
 
@@ -54,37 +59,47 @@ class ExtendedPiezo(AbstractHysteresisModel):
     fitted. State: (h, c1, c2, c3, y_dyn, yd_dyn, z, x).
     """
 
-    k1: Float[Array, ""] = parameter_field()
-    k2: Float[Array, ""] = parameter_field()
-    A1: Float[Array, ""] = parameter_field()
-    beta1: Float[Array, ""] = parameter_field()
-    gamma1: Float[Array, ""] = parameter_field()
-    n: Float[Array, ""] = parameter_field()
-    eps: Float[Array, ""] = parameter_field(default=0.0)
-    quad: Float[Array, ""] = parameter_field(default=0.0)
-    cubic: Float[Array, ""] = parameter_field(default=0.0)
-    skew: Float[Array, ""] = parameter_field(default=0.0)
-    phi: Float[Array, ""] = parameter_field(default=0.0)
-    input_lead: Float[Array, ""] = parameter_field(default=0.0)
-    input_time: Float[Array, ""] = parameter_field(default=1e-2)
-    rate_gain: Float[Array, ""] = parameter_field(default=0.0)
-    viscous: Float[Array, ""] = parameter_field(default=0.0)
-    rate_amplitude: Float[Array, ""] = parameter_field(default=0.0)
-    viscous_time: Float[Array, ""] = parameter_field(default=1e-3)
-    creep_fast: Float[Array, ""] = parameter_field(default=0.0)
-    creep_slow: Float[Array, ""] = parameter_field(default=0.0)
-    creep_slower: Float[Array, ""] = parameter_field(default=0.0)
-    offset: Float[Array, ""] = parameter_field(default=0.0)
-    trend: Float[Array, ""] = parameter_field(default=0.0)
-    curvature: Float[Array, ""] = parameter_field(default=0.0)
-    wander: Float[Array, ""] = parameter_field(default=0.0)
-    natural_frequency: Float[Array, ""] = parameter_field(default=1e3)
-    damping_ratio: Float[Array, ""] = parameter_field(default=0.7)
-    input_center: Float[Array, ""] = parameter_field(default=0.0, kw_only=True)
-    input_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
-    rate_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
-    time_center: Float[Array, ""] = parameter_field(default=0.0, kw_only=True)
-    time_scale: Float[Array, ""] = parameter_field(default=1.0, kw_only=True)
+    k1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    k2: Float[Array, ""] = eqx.field(converter=as_parameter)
+    A1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    gamma1: Float[Array, ""] = eqx.field(converter=as_parameter)
+    n: Float[Array, ""] = eqx.field(converter=as_parameter)
+    eps: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    quad: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    cubic: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    skew: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    phi: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    input_lead: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    input_time: Float[Array, ""] = eqx.field(converter=as_parameter, default=1e-2)
+    rate_gain: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    viscous: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    rate_amplitude: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    viscous_time: Float[Array, ""] = eqx.field(converter=as_parameter, default=1e-3)
+    creep_fast: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    creep_slow: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    creep_slower: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    offset: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    trend: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    curvature: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    wander: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    natural_frequency: Float[Array, ""] = eqx.field(converter=as_parameter, default=1e3)
+    damping_ratio: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.7)
+    input_center: Float[Array, ""] = eqx.field(
+        converter=as_parameter, default=0.0, kw_only=True
+    )
+    input_scale: Float[Array, ""] = eqx.field(
+        converter=as_parameter, default=1.0, kw_only=True
+    )
+    rate_scale: Float[Array, ""] = eqx.field(
+        converter=as_parameter, default=1.0, kw_only=True
+    )
+    time_center: Float[Array, ""] = eqx.field(
+        converter=as_parameter, default=0.0, kw_only=True
+    )
+    time_scale: Float[Array, ""] = eqx.field(
+        converter=as_parameter, default=1.0, kw_only=True
+    )
     creep_times: tuple[float, float, float] = eqx.field(
         default=(0.3, 3.0, 30.0), static=True, kw_only=True
     )

@@ -7,7 +7,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._smoothing import AbstractSmoothing, ExactSign
-from .base import AbstractHysteresisModel, hysteretic_rate, parameter_field
+from .base import AbstractHysteresisModel, as_parameter, hysteretic_rate
 
 
 class HystereticOscillator(AbstractHysteresisModel):
@@ -20,13 +20,13 @@ class HystereticOscillator(AbstractHysteresisModel):
     beta*delta, which are the identifiable parameters used here. State: (y, yd, z).
     """
 
-    mass: Float[Array, ""] = parameter_field()
-    damping: Float[Array, ""] = parameter_field()
-    stiffness: Float[Array, ""] = parameter_field()
-    alpha: Float[Array, ""] = parameter_field()
-    beta_gamma: Float[Array, ""] = parameter_field()
-    beta_delta: Float[Array, ""] = parameter_field()
-    nu: Float[Array, ""] = parameter_field()
+    mass: Float[Array, ""] = eqx.field(converter=as_parameter)
+    damping: Float[Array, ""] = eqx.field(converter=as_parameter)
+    stiffness: Float[Array, ""] = eqx.field(converter=as_parameter)
+    alpha: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta_gamma: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta_delta: Float[Array, ""] = eqx.field(converter=as_parameter)
+    nu: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
 
     parameter_names: ClassVar[tuple[str, ...]] = (
