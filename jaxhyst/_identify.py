@@ -500,6 +500,16 @@ def identify(
         )
     if swarm is None and start is None:
         raise ValueError("identify: with swarm=None pass start=<model> to polish from.")
+    if swarm_stride is not None and (
+        not isinstance(swarm_stride, int)
+        or isinstance(swarm_stride, bool)
+        or swarm_stride < 1
+    ):
+        raise ValueError(
+            f"identify: swarm_stride={swarm_stride!r} must be an integer >= 1 (samples "
+            "per RK4 step of the swarm's objective), or None for "
+            "swarm_samples_per_step(recording.u)."
+        )
     recording.require_samples(20, what="identification")
     t_start = time.perf_counter()
     inputs = recording.input_path()

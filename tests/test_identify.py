@@ -166,6 +166,9 @@ def test_identify_bad_inputs():
         jh.identify(TEMPLATE, np.zeros(5), key=jax.random.key(0))  # type: ignore
     with pytest.raises(ValueError, match="start"):
         jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=None)
+    for stride in (0, -2, 2.5):
+        with pytest.raises(ValueError, match="swarm_stride"):
+            jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm_stride=stride)
 
 
 def test_fit_does_not_retrace_for_new_parameter_values():
