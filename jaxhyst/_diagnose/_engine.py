@@ -205,10 +205,11 @@ def _moving_columns(cols: np.ndarray) -> np.ndarray:
 
 def _effect_columns(effect: str, column: dict[str, np.ndarray]) -> np.ndarray:
     """The output's sensitivities to an effect's parameters (those that move it)."""
-    names = [p for p in CATALOGUE[effect].parameters if p in column]
-    if not names:
-        return np.zeros((0, 0))
-    return _moving_columns(np.stack([column[p] for p in names], axis=1))
+    rows = len(next(iter(column.values())))
+    cols = [column[p] for p in CATALOGUE[effect].parameters if p in column]
+    if not cols:
+        return np.zeros((rows, 0))
+    return _moving_columns(np.stack(cols, axis=1))
 
 
 def _standing_in(
