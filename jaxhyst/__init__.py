@@ -30,6 +30,7 @@ from ._diagnose._engine import (
 )
 from ._diagnose._locate import locate as locate
 from ._identify import (
+    AbstractOptimistixPolish as AbstractOptimistixPolish,
     AbstractPolish as AbstractPolish,
     AdamPolish as AdamPolish,
     BFGSPolish as BFGSPolish,

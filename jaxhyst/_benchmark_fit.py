@@ -356,10 +356,10 @@ def fit_periodic(
     space: ParameterSpace,
     swarm: MPSO | None = MPSO(num_particles=64, num_iterations=150),
     prepolish: AbstractPolish | None = LevenbergMarquardtPolish(
-        rtol=1e-6, atol=1e-8, max_steps=60
+        rtol=1e-6, atol=1e-8, max_steps=60, min_gain=1e-5
     ),
     polish: AbstractPolish | None = LevenbergMarquardtPolish(
-        rtol=1e-6, atol=1e-8, max_steps=30
+        rtol=1e-6, atol=1e-8, max_steps=30, min_gain=1e-5
     ),
     simulation: PeriodicSimulation = PeriodicSimulation(),
     coarse_simulation: PeriodicSimulation = PeriodicSimulation(

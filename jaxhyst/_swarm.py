@@ -110,6 +110,19 @@ def _bounds(lower, upper) -> tuple[Array, Array]:
     return lower, upper
 
 
+def _quick_threefry():
+    """The swarm's random draws use JAX's non-partitionable threefry: on CPU, XLA
+    compiles a partitionable draw of a few thousand numbers ~5x slower (about 1 s per
+    draw, measured), and these arrays are small and replicated anyway. The values do
+    not depend on sharding either way; the choice is scoped to these draws."""
+    return jax.threefry_partitionable(False)
+
+
+def _fold_in(key, data):
+    with _quick_threefry():
+        return jr.fold_in(key, data)
+
+
 def _evaluate(objective, positions, args, valid=None) -> Array:
     """Fitness of every particle; non-finite (and invalid, i.e. padding) -> +inf."""
     values = jnp.asarray(jax.vmap(objective, in_axes=(0, None))(positions, args))
@@ -241,27 +254,31 @@ class MPSO(eqx.Module):
         """Eq. 14: positions uniform in `[lower, upper]`, velocities uniform in
         `[-velocity_limit, velocity_limit]`; evaluate; pbest = positions, gbest their
         best. `objective(x, args)` maps a `(d,)` position to a scalar."""
+        state = self._sample(lower, upper, key)
+        return self._update(objective, state, state.positions, state.velocities, args)
+
+    def _sample(self, lower, upper, key) -> SwarmState:
+        """Eq. 14 without the evaluation: every fitness +inf and `iteration = -1`, so
+        that the next `_advance` evaluates these positions instead of moving."""
         lower, upper = _bounds(lower, upper)
         d, dtype = lower.shape[0], lower.dtype
         vlim = self._velocity_limit(d, dtype)
-        key_x, key_v = jr.split(key)
         shape = (self.num_particles, d)
-        positions = lower[None] + (upper - lower)[None] * jr.uniform(
-            key_x, shape, dtype
-        )
+        with _quick_threefry():
+            unit = jr.uniform(key, (2, *shape), dtype)
+        positions = lower[None] + (upper - lower)[None] * unit[0]
         positions = jnp.clip(positions, lower[None], upper[None])
-        velocities = -vlim[None] + 2 * vlim[None] * jr.uniform(key_v, shape, dtype)
-        fitness = _evaluate(objective, positions, args)
-        best = jnp.argmin(fitness)
+        velocities = -vlim[None] + 2 * vlim[None] * unit[1]
+        unknown = jnp.full((self.num_particles,), jnp.inf, dtype)
         return SwarmState(
             positions=positions,
             velocities=velocities,
-            fitness=fitness,
+            fitness=unknown,
             pbest=positions,
-            pbest_fitness=fitness,
-            gbest=positions[best],
-            gbest_fitness=fitness[best],
-            iteration=jnp.asarray(0, dtype=jnp.int32),
+            pbest_fitness=unknown,
+            gbest=positions[0],
+            gbest_fitness=unknown[0],
+            iteration=jnp.asarray(-1, dtype=jnp.int32),
             lower=lower,
             upper=upper,
         )
@@ -279,6 +296,20 @@ class MPSO(eqx.Module):
         `run_swarm` for sharding) the extra rows are inert: they get zero random
         factors, never move and their fitness is +inf.
         """
+        x, v = self._move(state, key)
+        return self._update(objective, state, x, v, args)
+
+    def _advance(self, objective, state: SwarmState, key, args) -> SwarmState:
+        """`step`, or, on a state from `_sample` (`iteration = -1`), the evaluation
+        that completes `init`: one program serves both, so a run compiles the
+        objective once."""
+        x, v = self._move(state, key)
+        fresh = state.iteration < 0
+        x = jnp.where(fresh, state.positions, x)
+        v = jnp.where(fresh, state.velocities, v)
+        return self._update(objective, state, x, v, args)
+
+    def _move(self, state: SwarmState, key) -> tuple[Array, Array]:
         x, v = state.positions, state.velocities
         rows, d = x.shape
         n = self.num_particles
@@ -289,20 +320,27 @@ class MPSO(eqx.Module):
             )
         dtype = x.dtype
         c1, c2 = self.c1.astype(dtype), self.c2.astype(dtype)
-        w = self.inertia_weight(state.iteration).astype(dtype)
+        w = self.inertia_weight(jnp.maximum(state.iteration, 0)).astype(dtype)
         vlim = self._velocity_limit(d, dtype)[None]
         # Random factors are drawn for the real swarm only, so their values do not
         # depend on padding or on how the particles are split across devices.
-        r = jr.uniform(key, (2, n, d), dtype)
-        valid = None
+        with _quick_threefry():
+            r = jr.uniform(key, (2, n, d), dtype)
         if rows > n:
             r = jnp.pad(r, ((0, 0), (0, rows - n), (0, 0)))
-            valid = jnp.arange(rows) < n
         v = w * v + c1 * r[0] * (state.pbest - x) + c2 * r[1] * (state.gbest[None] - x)
         v = jnp.clip(v, -vlim, vlim)
         moved = x + v
         x = jnp.clip(moved, state.lower[None], state.upper[None])
         v = jnp.where(moved == x, v, 0)  # absorbing wall: stop the clipped component
+        return x, v
+
+    def _update(self, objective, state: SwarmState, x, v, args) -> SwarmState:
+        """Evaluate `x` and update the personal and global bests (eq. 11)."""
+        rows = x.shape[0]
+        valid = (
+            jnp.arange(rows) < self.num_particles if rows > self.num_particles else None
+        )
         fitness = _evaluate(objective, x, args, valid)
         improved = fitness < state.pbest_fitness
         pbest = jnp.where(improved[:, None], x, state.pbest)
@@ -385,8 +423,10 @@ def _map_state(state: SwarmState, fn, particle, replicated) -> SwarmState:
 
 
 @eqx.filter_jit
-def _init_jit(swarm, objective, lower, upper, key, args):
-    return swarm.init(objective, lower, upper, key, args)
+def _sample_jit(swarm, lower, upper, key):
+    with _quick_threefry():
+        key_init, key_loop = jr.split(key)
+    return swarm._sample(lower, upper, key_init), key_loop
 
 
 @eqx.filter_jit
@@ -424,7 +464,7 @@ def _run_chunk(
             _stop_code(swarm, state, monitor, target, stall_iterations) == _RUNNING
         )
         new = constrain(
-            swarm.step(objective, state, jr.fold_in(key, state.iteration), args)
+            swarm._advance(objective, state, _fold_in(key, state.iteration), args)
         )
         improved = new.gbest_fitness < monitor.reference - stall_tolerance
         new_monitor = _Monitor(
@@ -579,7 +619,7 @@ def run_swarm(
     if devices is not None and len(devices) == 0:
         raise ValueError("`devices` is empty.")
     n = swarm.num_particles
-    length = min(chunk_size, swarm.num_iterations)
+    length = min(chunk_size, swarm.num_iterations + 1)
 
     with _CompileTimer() as timer:
         particle_sharding = replicated_sharding = None
@@ -593,8 +633,9 @@ def run_swarm(
             objective = _replicate(objective, replicated_sharding)
             args = _replicate(args, replicated_sharding)
 
-        key_init, key_loop = jr.split(key)
-        state = _init_jit(swarm, objective, lower, upper, key_init, args)
+        # The initial evaluation (eq. 14) is the first iteration of the first chunk,
+        # so the objective is compiled once, inside the loop.
+        state, key_loop = _sample_jit(swarm, lower, upper, key)
         dtype = state.positions.dtype
         if particle_sharding is not None:
             state = _map_state(
@@ -612,12 +653,9 @@ def run_swarm(
         )
         tolerance_array = jnp.asarray(stall_tolerance, dtype)
 
-        best = float(state.gbest_fitness)
-        history = [np.asarray([best])]
-        iteration = 0
-        code = _TARGET if target is not None and best <= target else _RUNNING
-        if progress:
-            _progress(0, swarm.num_iterations, best, time.perf_counter() - start)
+        history = []
+        iteration = -1
+        code = _RUNNING
         while code == _RUNNING:
             state, monitor, chunk_history, code_array = _run_chunk(
                 swarm,
@@ -640,9 +678,11 @@ def run_swarm(
             history.append(np.asarray(chunk_history[: new_iteration - iteration]))
             iteration = new_iteration
             if progress:
-                best = float(history[-1][-1]) if len(history[-1]) else best
                 _progress(
-                    iteration, swarm.num_iterations, best, time.perf_counter() - start
+                    iteration,
+                    swarm.num_iterations,
+                    float(history[-1][-1]),
+                    time.perf_counter() - start,
                 )
         if progress:
             sys.stderr.write("\n")

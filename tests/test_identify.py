@@ -134,6 +134,40 @@ def test_same_key_same_fit_and_polish_variants():
         assert fit.metrics["rmse"] <= a.metrics["rmse"] * (1 + 1e-9)
 
 
+def test_polish_stops_when_a_chunk_stops_paying():
+    recording, _ = _recording(rate=100.0)
+    small = jh.MPSO(num_particles=24, num_iterations=30)
+    swarm_only = jh.identify(
+        TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None
+    )
+    problem = jh.Problem(
+        jh.ParameterSpace.default(
+            TEMPLATE,
+            float(np.max(np.abs(recording.u))),
+            float(np.max(np.abs(recording.y))),
+            recording.duration,
+            sample_rate=recording.sample_rate,
+        ),
+        recording.input_path(),
+        jnp.asarray(recording.y),
+        jh.RK4(),
+    )
+    z0 = problem.space.from_model(swarm_only.model)
+    # Any gain short of 100 % ends the polish after its first chunk of 10 steps.
+    eager = jh.LevenbergMarquardtPolish(min_gain=1.0).run(problem, z0)
+    assert eager.steps == 10 and eager.converged and len(eager.loss_history) == 2
+    # The default stops at 1 % of the RMSE's sampling spread, 0.01/sqrt(2n).
+    threshold = max(1e-5, 0.01 / np.sqrt(2 * recording.y.size))
+    default = jh.LevenbergMarquardtPolish().run(problem, z0)
+    best_before = np.minimum.accumulate(default.loss_history)[:-1]
+    gains = 1 - default.loss_history[1:] / best_before
+    assert default.converged and default.steps >= 10
+    assert np.all(gains[:-1] >= threshold)
+    patient = jh.LevenbergMarquardtPolish(min_gain=1e-15).run(problem, z0)
+    assert patient.steps >= default.steps
+    assert patient.loss_history.min() <= default.loss_history.min()
+
+
 def test_two_stage_corrected_fit_finds_asymmetry():
     truth = jh.CorrectedPiezoBoucWen.from_piezo(TRUTH, phi=0.0, eps=0.02)
     recording, sigma = _recording(truth)

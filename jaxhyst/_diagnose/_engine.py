@@ -18,6 +18,7 @@ from .._identify import (
     LevenbergMarquardtPolish,
     Problem,
     _decimate,
+    _model_at,
     _problem_rmse,
     _swarm_objective,
     identify,
@@ -417,8 +418,9 @@ def _refit(
         [ALL_NAMES.index(n) for n in names],
         smallest=11 if problem.measured.size < inputs.num_samples else 8,
     )
-    result = LevenbergMarquardtPolish(max_steps=max_steps).run(active, active.start())
-    return space.to_model(active.full(result.z))
+    polish = LevenbergMarquardtPolish(max_steps=max_steps, min_gain=1e-5)
+    result = polish.run(active, active.start())
+    return _model_at(space, active.full(result.z))
 
 
 class _ActiveProblem(eqx.Module):
