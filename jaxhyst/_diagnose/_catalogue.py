@@ -40,7 +40,7 @@ CATALOGUE: dict[str, Effect] = {
         ),
         Effect(
             "creep",
-            ("creep_fast", "creep_slow", "creep_slower"),
+            ("creep_faster", "creep_fast", "creep_slow", "creep_slower"),
             "the output keeps drifting for seconds after the input changes or "
             "holds (slow relaxation driven by the input)",
         ),

@@ -25,6 +25,10 @@ from .base import (
 from .bouc_wen import PiezoBoucWen, ShiftedDrive
 
 
+# Where the creep modes (fastest first, as in `creep_times`) live in the state.
+_CREEP_STATES = (8, 1, 2, 3)
+
+
 class ExtendedPiezo(AbstractHysteresisModel):
     """`PiezoBoucWen` plus the catalogue's effects (all off at zero):
 
@@ -44,10 +48,10 @@ class ExtendedPiezo(AbstractHysteresisModel):
                        z' = (u - z)/viscous_time: a Kelvin-Voigt (viscoelastic)
                        element, ~ viscous*udot/rate_scale below 1/viscous_time
                        (faster cycles saturate sooner, open wider, or lag)
-    - creep:           y += creep_fast*(c1 - u) + creep_slow*(c2 - u)
-                            + creep_slower*(c3 - u),
-                       ci' = (u - ci)/tau_i with tau = creep_times (0.3, 3, 30 s:
-                       logarithmic creep spans decades)
+    - creep:           y += creep_faster*(c0 - u) + creep_fast*(c1 - u)
+                            + creep_slow*(c2 - u) + creep_slower*(c3 - u),
+                       ci' = (u - ci)/tau_i with tau = creep_times (0.03, 0.3, 3,
+                       30 s: logarithmic creep spans decades, one mode per decade)
     - drift:           y += offset + trend*s + curvature*(s^2 - 1/3)
                             + wander*(5 s^3 - 3 s)/2  (Legendre terms),
                        s = (t - time_center)/time_scale in [-1, 1]
@@ -56,7 +60,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
                        natural_frequency, zeta = damping_ratio)
 
     The *_center/*_scale fields normalise the effects to the recording and are not
-    fitted. State: (h, c1, c2, c3, y_dyn, yd_dyn, z, x).
+    fitted. State: (h, c1, c2, c3, y_dyn, yd_dyn, z, x, c0).
     """
 
     k1: Float[Array, ""] = eqx.field(converter=as_parameter)
@@ -76,6 +80,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
     viscous: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     rate_amplitude: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     viscous_time: Float[Array, ""] = eqx.field(converter=as_parameter, default=1e-3)
+    creep_faster: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     creep_fast: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     creep_slow: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     creep_slower: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
@@ -100,8 +105,8 @@ class ExtendedPiezo(AbstractHysteresisModel):
     time_scale: Float[Array, ""] = eqx.field(
         converter=as_parameter, default=1.0, kw_only=True
     )
-    creep_times: tuple[float, float, float] = eqx.field(
-        default=(0.3, 3.0, 30.0), static=True, kw_only=True
+    creep_times: tuple[float, float, float, float] = eqx.field(
+        default=(0.03, 0.3, 3.0, 30.0), static=True, kw_only=True
     )
     dynamic: bool = eqx.field(default=False, static=True, kw_only=True)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
@@ -124,6 +129,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
         "viscous",
         "rate_amplitude",
         "viscous_time",
+        "creep_faster",
         "creep_fast",
         "creep_slow",
         "creep_slower",
@@ -134,7 +140,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
         "natural_frequency",
         "damping_ratio",
     )
-    state_size: ClassVar[int] = 8
+    state_size: ClassVar[int] = 9
 
     @classmethod
     def around(
@@ -190,6 +196,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
             + self.quad * (centred**2 - at_rest**2)
             + self.cubic * (centred**3 - at_rest**3)
             + self.viscous * (u - state[6]) / (self.viscous_time * self.rate_scale)
+            + self.creep_faster * (state[8] - u)
             + self.creep_fast * (c_fast - u)
             + self.creep_slow * (c_slow - u)
             + self.creep_slower * (c_slower - u)
@@ -215,13 +222,16 @@ class ExtendedPiezo(AbstractHysteresisModel):
         hdot = hysteretic_rate(s, h, seen_rate, amplitude, self.beta1, gamma, self.n)
         hdot = hdot * (1 + self.rate_gain * relative_rate)
         hdot = hdot + self.eps * drive.u * s.sign(drive.udot)
-        creep_rates = [
-            (drive.u - state[1 + i]) / tau for i, tau in enumerate(self.creep_times)
-        ]
+        faster, fast, slow, slower = (
+            (drive.u - state[i]) / tau
+            for i, tau in zip(_CREEP_STATES, self.creep_times, strict=True)
+        )
         # The stage (y, yd) is propagated exactly per sample in `sample_update`.
         zero = jnp.zeros_like(h)
         viscous_rate = (drive.u - state[6]) / self.viscous_time
-        return jnp.stack([hdot, *creep_rates, zero, zero, viscous_rate, input_rate])
+        return jnp.stack(
+            [hdot, fast, slow, slower, zero, zero, viscous_rate, input_rate, faster]
+        )
 
     def sample_update(self, inputs):
         """With `dynamic=True`: the stage ydd/omega^2 + (2 zeta/omega) yd + y = y_s,
@@ -272,7 +282,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
         u = jnp.asarray(drive.u)
         zero = jnp.zeros_like(u)
         v = jnp.asarray(drive.v) if isinstance(drive, ShiftedDrive) else u
-        state = jnp.stack([zero, u, u, u, zero, zero, u, v])
+        state = jnp.stack([zero, u, u, u, zero, zero, u, v, u])
         if self.dynamic:
             state = state.at[4].set(self._static_output(0.0, state, drive))
         return state
