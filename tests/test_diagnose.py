@@ -120,3 +120,20 @@ def test_near_miss_overlapping_an_adopted_effect_is_reported():
     assert _standing_in([result("drift", 1.03, bic=5.0)], projected, adopted) == []
     assert _standing_in([result("drift", 1.0, accepted=True)], projected, adopted) == []
     assert _standing_in([result("asymmetry", 1.03)], projected, adopted) == []
+
+
+def test_runner_up_swapped_in_keeps_its_refitted_parameters():
+    from jaxhyst._diagnose._engine import _switch_off, _with_effect
+
+    base = jh.PiezoBoucWen(1.0, 0.3, -1.0, 0.002, -0.001, 1.5)
+    path = jh.sample(jh.paper_u1(), 100.0)
+    current = jh.ExtendedPiezo.around(base, path).replace(phi=0.01, eps=0.02)
+    source = jh.ExtendedPiezo.around(base, path).with_dynamics(40.0, 0.3)
+    swapped = _with_effect(_switch_off(current, "input_bias"), "dynamics", source)
+    assert swapped.dynamic and float(swapped.natural_frequency) == 40.0
+    assert float(swapped.phi) == 0.0 and float(swapped.eps) == 0.02
+    back = _with_effect(_switch_off(swapped, "dynamics"), "input_bias", current)
+    assert not back.dynamic and float(back.phi) == 0.01
+    np.testing.assert_allclose(
+        jh.simulate(back, path), jh.simulate(current, path), rtol=0, atol=1e-12
+    )

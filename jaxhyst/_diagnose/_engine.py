@@ -466,6 +466,14 @@ def _switch_off(model: ExtendedPiezo, effect: str) -> ExtendedPiezo:
     return model.replace(**{p: 0.0 for p in gains})
 
 
+def _with_effect(model: ExtendedPiezo, effect: str, source: ExtendedPiezo):
+    """`model` with `effect`'s parameters taken from `source`."""
+    values = {p: float(getattr(source, p)) for p in CATALOGUE[effect].parameters}
+    if effect == "dynamics":
+        return model.with_dynamics(values["natural_frequency"], values["damping_ratio"])
+    return model.replace(**values)
+
+
 def _holdout_blocks(n: int, fraction: float, blocks: int = 30) -> np.ndarray:
     """Fit mask that holds out evenly spread blocks (about `fraction` of the samples),
     so that slow effects are judged by interpolation, not extrapolation. Many short
@@ -564,6 +572,9 @@ def diagnose(
     location = locate(t, np.asarray(recording.u), y - predicted)
     free = list(BASE_FREE)
     findings: list[Finding] = []
+    # The other candidates that passed validation in the round an effect was adopted,
+    # with where the mismatch was then: revisited once later effects are in.
+    runners_up: dict[str, tuple[list[dict[str, Any]], dict[str, Any]]] = {}
     ambiguities: list[str] = []
     rounds: list[list[dict[str, Any]]] = []
     threshold_cache: dict[int, float] = {}
@@ -777,6 +788,7 @@ def diagnose(
                     f"{effect} is kept for the fit."
                 )
         where_now = locate(t, np.asarray(recording.u), y - predicted)
+        runners_up[effect] = (accepted[1:], where_now)
         before = error_metrics(y, predicted)
         after = error_metrics(y, winner["predicted"])
         findings.append(
@@ -848,6 +860,85 @@ def diagnose(
             f"{', '.join(f.effect for f in findings)} had been added it no longer "
             "lowered the held-out error by more than its noise."
         )
+
+    # Revisit greedy choices: an effect adopted while a later one was still
+    # unmodelled may have won by soaking up part of that one (a time shift standing in
+    # for a resonance while the branches' asymmetry was unexplained). With the later
+    # effects in the model, each runner-up of its round is tried in its place.
+    for position in range(len(findings) - 1):
+        finding = findings[position]
+        others, where_then = runners_up.get(finding.effect, ([], {}))
+        for other in others:
+            alternative = other["candidate"]["effect"]
+            if alternative in {f.effect for f in findings}:
+                continue
+            names = [
+                p for p in free if p not in CATALOGUE[finding.effect].parameters
+            ] + list(CATALOGUE[alternative].parameters)
+            trial = _with_effect(
+                _switch_off(current, finding.effect), alternative, other["model"]
+            )
+            try:
+                swapped = _refit(
+                    trial,
+                    names,
+                    inputs,
+                    measured,
+                    weights,
+                    natural,
+                    fs,
+                    duration,
+                    max_steps=20,
+                    key=jax.random.fold_in(key, 7919 + position),
+                )
+            except Exception:  # noqa: BLE001 - a failed refit keeps the adopted effect
+                continue
+            swapped_pred = _predict(swapped, inputs)
+            if not np.all(np.isfinite(swapped_pred)):
+                continue
+            hold_now = _mse(y - predicted, hold_mask)
+            hold_swapped = _mse(y - swapped_pred, hold_mask)
+            change = np.sqrt(np.mean((swapped_pred - predicted)[hold_mask] ** 2))
+            resolution = _resolution(noise_sd, change, n_eff_hold)
+            later = ", ".join(f.effect for f in findings[position + 1 :])
+            if hold_now - hold_swapped <= resolution:
+                if hold_swapped - hold_now <= resolution:
+                    ambiguities.append(
+                        f"cannot tell {finding.effect} from {alternative} on this "
+                        f"recording: with {later} modelled, either explains the "
+                        f"held-out data as well (RMSE {math.sqrt(hold_now):.3g} vs "
+                        f"{math.sqrt(hold_swapped):.3g}); {finding.effect} is kept."
+                    )
+                continue
+            ambiguities.append(
+                f"{finding.effect} was adopted first, then replaced by {alternative}: "
+                f"once {later} had been added, {alternative} explains the held-out "
+                f"data better (RMSE {math.sqrt(hold_swapped):.3g} vs "
+                f"{math.sqrt(hold_now):.3g}, beyond its noise)."
+            )
+            findings[position] = Finding(
+                alternative,
+                _evidence(alternative, other, where_then),
+                describe(where_then),
+                float(other["candidate"]["statistic"]),
+                {
+                    p: float(getattr(swapped, p))
+                    for p in CATALOGUE[alternative].parameters
+                },
+                finding.before,
+                error_metrics(y, other["predicted"]),
+                {**other["validation"], "replaced": finding.effect},
+            )
+            free = names
+            current = _refit(
+                swapped, free, inputs, measured, weights, natural, fs, duration
+            )
+            predicted = _predict(current, inputs)
+            if not np.all(np.isfinite(predicted)) or _mse(
+                y - predicted, fit_mask
+            ) > _mse(y - swapped_pred, fit_mask):
+                current, predicted = swapped, swapped_pred
+            break
 
     final_model = current
     if findings:
