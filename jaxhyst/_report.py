@@ -414,7 +414,12 @@ def _parameters_text(parameters: Mapping[str, float]) -> str:
 def _validation_lines(v: Mapping[str, Any], scale: float, unit: str) -> list[str]:
     s = f" {unit}" if unit else ""
     verdict = "accepted" if v.get("accepted") else "rejected"
-    return [
+    replaced = (
+        [f"replaced {v['replaced']}, adopted first, once later effects were in"]
+        if v.get("replaced")
+        else []
+    )
+    return replaced + [
         f"held-out RMSE {_number(scale * v['heldout_rmse_before'])} -> "
         f"{_number(scale * v['heldout_rmse_after'])}{s} (needed a drop in MSE of "
         f"more than {_number(scale**2 * v['heldout_margin_mse'], 3)}"
