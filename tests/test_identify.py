@@ -116,15 +116,30 @@ def test_gauge_fixed_fit_has_finite_standard_errors():
     assert all(np.isnan(v) for v in ungauged.standard_errors.values())
 
 
+SMALL_SWARM = jh.MPSO(num_particles=24, num_iterations=30)
+
+
+def _problem(recording, **space_options):
+    space = jh.ParameterSpace.default(
+        TEMPLATE,
+        float(np.max(np.abs(recording.u))),
+        float(np.max(np.abs(recording.y))),
+        recording.duration,
+        **space_options,
+    )
+    return jh.Problem(space, recording.input_path(), jnp.asarray(recording.y), jh.RK4())
+
+
+def _swarm_only(recording):
+    return jh.identify(
+        TEMPLATE, recording, key=jax.random.key(5), swarm=SMALL_SWARM, polish=None
+    )
+
+
 def test_same_key_same_fit_and_polish_variants():
     recording, _ = _recording(rate=100.0)
-    small = jh.MPSO(num_particles=24, num_iterations=30)
-    a = jh.identify(
-        TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None
-    )
-    b = jh.identify(
-        TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None
-    )
+    small = SMALL_SWARM
+    a, b = _swarm_only(recording), _swarm_only(recording)
     assert a.metrics == b.metrics
     for polish in (jh.BFGSPolish(max_steps=30), jh.AdamPolish(max_steps=100)):
         fit = jh.identify(
@@ -136,22 +151,8 @@ def test_same_key_same_fit_and_polish_variants():
 
 def test_polish_stops_when_a_chunk_stops_paying():
     recording, _ = _recording(rate=100.0)
-    small = jh.MPSO(num_particles=24, num_iterations=30)
-    swarm_only = jh.identify(
-        TEMPLATE, recording, key=jax.random.key(5), swarm=small, polish=None
-    )
-    problem = jh.Problem(
-        jh.ParameterSpace.default(
-            TEMPLATE,
-            float(np.max(np.abs(recording.u))),
-            float(np.max(np.abs(recording.y))),
-            recording.duration,
-            sample_rate=recording.sample_rate,
-        ),
-        recording.input_path(),
-        jnp.asarray(recording.y),
-        jh.RK4(),
-    )
+    swarm_only = _swarm_only(recording)
+    problem = _problem(recording, sample_rate=recording.sample_rate)
     z0 = problem.space.from_model(swarm_only.model)
     # Any gain short of 100 % ends the polish after its first chunk of 10 steps.
     eager = jh.LevenbergMarquardtPolish(min_gain=1.0).run(problem, z0)
@@ -263,17 +264,7 @@ def test_swarm_objective_uses_every_sample():
     from jaxhyst._identify import _swarm_problem
 
     recording, _ = _recording(rate=1000.0)
-    problem = jh.Problem(
-        jh.ParameterSpace.default(
-            TEMPLATE,
-            float(np.max(np.abs(recording.u))),
-            float(np.max(np.abs(recording.y))),
-            recording.duration,
-        ),
-        recording.input_path(),
-        jnp.asarray(recording.y),
-        jh.RK4(),
-    )
+    problem = _problem(recording)
     coarse = _swarm_problem(problem, 5)
     assert coarse.solver == jh.RK4(samples_per_step=5)
     assert coarse.measured.shape == problem.measured.shape

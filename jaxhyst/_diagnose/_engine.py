@@ -298,7 +298,7 @@ def _predict_jit(model, inputs):
     return simulate(model, inputs, SOLVER, throw=False)
 
 
-def _predict(model: ExtendedPiezo, inputs) -> np.ndarray:
+def _predict(model: AbstractHysteresisModel, inputs) -> np.ndarray:
     """The model's output at every sample (NaN/inf where it diverges)."""
     return np.asarray(_predict_jit(model, inputs))
 
@@ -579,6 +579,13 @@ def diagnose(
     rounds: list[list[dict[str, Any]]] = []
     threshold_cache: dict[int, float] = {}
     natural: dict[str, float] = {}
+
+    def refit(model, names, **options):
+        """`_refit` on this recording (with the current round's natural scales)."""
+        return _refit(
+            model, names, inputs, measured, weights, natural, fs, duration, **options
+        )
+
     neff_ratio, noise_sd = 1.0, 0.0
     n_eff_hold = float(hold_mask.sum())
 
@@ -678,15 +685,9 @@ def diagnose(
             trial = cand["start"]
             names = free + list(CATALOGUE[effect].parameters)
             try:
-                refit = _refit(
+                refitted = refit(
                     trial,
                     names,
-                    inputs,
-                    measured,
-                    weights,
-                    natural,
-                    fs,
-                    duration,
                     max_steps=20,
                     key=jax.random.fold_in(key, 1000 * len(findings) + len(results)),
                 )
@@ -695,7 +696,7 @@ def diagnose(
                     if entry["effect"] == effect:
                         entry["refit_error"] = str(error).splitlines()[0][:200]
                 continue
-            new_pred = _predict(refit, inputs)
+            new_pred = _predict(refitted, inputs)
             if not np.all(np.isfinite(new_pred)):
                 for entry in round_summary:
                     if entry["effect"] == effect:
@@ -721,7 +722,7 @@ def diagnose(
             results.append(
                 {
                     "candidate": cand,
-                    "model": refit,
+                    "model": refitted,
                     "predicted": new_pred,
                     "validation": {
                         "heldout_rmse_before": math.sqrt(before_hold),
@@ -809,9 +810,7 @@ def diagnose(
         free = free + [p for p in CATALOGUE[effect].parameters if p not in free]
         # Converge the adopted model before looking for more: an under-fitted
         # winner leaves structure that would pass for a further effect.
-        current = _refit(
-            winner["model"], free, inputs, measured, weights, natural, fs, duration
-        )
+        current = refit(winner["model"], free)
         predicted = _predict(current, inputs)
         if not np.all(np.isfinite(predicted)) or _mse(y - predicted, fit_mask) > _mse(
             y - winner["predicted"], fit_mask
@@ -827,16 +826,8 @@ def diagnose(
         for finding in findings:
             names = [p for p in free if p not in CATALOGUE[finding.effect].parameters]
             try:
-                reduced = _refit(
-                    _switch_off(current, finding.effect),
-                    names,
-                    inputs,
-                    measured,
-                    weights,
-                    natural,
-                    fs,
-                    duration,
-                    max_steps=20,
+                reduced = refit(
+                    _switch_off(current, finding.effect), names, max_steps=20
                 )
             except Exception:  # noqa: BLE001 - a failed refit keeps the effect
                 continue
@@ -879,15 +870,9 @@ def diagnose(
                 _switch_off(current, finding.effect), alternative, other["model"]
             )
             try:
-                swapped = _refit(
+                swapped = refit(
                     trial,
                     names,
-                    inputs,
-                    measured,
-                    weights,
-                    natural,
-                    fs,
-                    duration,
                     max_steps=20,
                     key=jax.random.fold_in(key, 7919 + position),
                 )
@@ -930,9 +915,7 @@ def diagnose(
                 {**other["validation"], "replaced": finding.effect},
             )
             free = names
-            current = _refit(
-                swapped, free, inputs, measured, weights, natural, fs, duration
-            )
+            current = refit(swapped, free)
             predicted = _predict(current, inputs)
             if not np.all(np.isfinite(predicted)) or _mse(
                 y - predicted, fit_mask
