@@ -137,3 +137,21 @@ def test_runner_up_swapped_in_keeps_its_refitted_parameters():
     np.testing.assert_allclose(
         jh.simulate(back, path), jh.simulate(current, path), rtol=0, atol=1e-12
     )
+
+
+def test_creep_evidence_without_holds_reads_as_words_not_nan():
+    from jaxhyst._diagnose._engine import _evidence
+
+    t = np.linspace(0.0, 5.0, 5001)
+    u = 75 * np.sin(2 * np.pi * t)
+    where = jh.locate(t, u, np.random.default_rng(0).standard_normal(t.size))
+    where["after_hold"]["relative"] = float("nan")  # as `locate` gives without holds
+    validation = {
+        "heldout_rmse_before": 0.2,
+        "heldout_rmse_after": 0.15,
+        "score_statistic": 3000.0,
+        "score_dof": 4,
+        "log10_p": -50.0,
+    }
+    text = _evidence("creep", {"validation": validation}, where)
+    assert "nan" not in text and "no holds" in text

@@ -992,6 +992,9 @@ def _evidence(effect: str, winner: dict[str, Any], where: dict[str, Any]) -> str
         "creep": (
             f"residual in the 2 s after holds begin is "
             f"{where['after_hold']['relative']:.2f}x the overall RMS"
+            if math.isfinite(where["after_hold"]["relative"])
+            else "the recording has no holds, so the slow relaxation shows only as "
+            "a lag that grows over seconds after the input's level changes"
         ),
         "dynamics": (
             f"residual dominated by {where['dominant_frequency_hz']:.3g} Hz content and "
