@@ -585,7 +585,8 @@ def run_swarm(
     - `key`: PRNG key; the same key gives the same result, whatever `chunk_size`,
       `sharding` or the number of devices.
     - `args`: passed to `objective` unchanged (a pytree; its arrays are traced).
-    - `chunk_size`: iterations per jitted `lax.scan`. Between chunks the host checks
+    - `chunk_size`: iterations per jitted `lax.scan` (the first chunk starts with the
+      initial evaluation, so it moves the swarm one time less). Between chunks the host checks
       for early stopping and prints progress; a smaller chunk reacts sooner, a larger
       one syncs less. The last chunk is computed in full (frozen after the stop), so
       at most `chunk_size - 1` iterations of work are wasted.
