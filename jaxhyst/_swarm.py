@@ -586,9 +586,9 @@ def run_swarm(
       `sharding` or the number of devices.
     - `args`: passed to `objective` unchanged (a pytree; its arrays are traced).
     - `chunk_size`: iterations per jitted `lax.scan` (the first chunk starts with the
-      initial evaluation, so it moves the swarm one time less). Between chunks the host checks
-      for early stopping and prints progress; a smaller chunk reacts sooner, a larger
-      one syncs less. The last chunk is computed in full (frozen after the stop), so
+      initial evaluation, so it moves the swarm one time less). Between chunks the
+      host checks for early stopping and prints progress; a smaller chunk reacts
+      sooner, a larger one syncs less. The last chunk is computed in full (frozen after the stop), so
       at most `chunk_size - 1` iterations of work are wasted.
     - `progress`: print a one-line progress bar to stderr after each chunk.
     - `target`: stop once the best fitness is `<= target`.
