@@ -184,8 +184,7 @@ def _minimise(problem, solver, z, steps):
 
 class LevenbergMarquardtPolish(AbstractOptimistixPolish):
     """optimistix Levenberg-Marquardt on the residuals: the default, and the fastest
-    from a swarm's best. Tighten `rtol`/`atol` for noise-free data.
-    """
+    from a swarm's best. Tighten `rtol`/`atol` for noise-free data."""
 
     rtol: float = 1e-8
     atol: float = 1e-10
