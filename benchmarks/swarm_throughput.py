@@ -452,7 +452,8 @@ def bench_jaxhyst(bench, size, args, sharding, devices, clock, as_fitted=False):
             swarm,
             jax.random.key(seed),
             args=problem,
-            chunk_size=args.iterations,
+            chunk_size=args.iterations
+            + 1,  # one chunk: the initial evaluation + G moves
             sharding=sharding,
         )
 

@@ -22,7 +22,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
-import jax.tree_util as jtu
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int, PRNGKeyArray
@@ -445,8 +444,8 @@ def _run_chunk(
     replicated_sharding,
 ):
     """`length` MPSO iterations in one `lax.scan`. Once a stop condition holds the
-    state is frozen (selected, not branched: no host round trip per iteration), so
-    where a run stops does not depend on the chunk length."""
+    state is frozen (a `lax.cond`: the remaining passes of the chunk skip the
+    objective), so where a run stops does not depend on the chunk length."""
 
     def constrain(tree):
         if particle_sharding is None:
@@ -458,11 +457,8 @@ def _run_chunk(
             replicated_sharding,
         )
 
-    def body(carry, _):
+    def advance(carry):
         state, monitor = carry
-        running = (
-            _stop_code(swarm, state, monitor, target, stall_iterations) == _RUNNING
-        )
         new = constrain(
             swarm._advance(objective, state, _fold_in(key, state.iteration), args)
         )
@@ -473,11 +469,14 @@ def _run_chunk(
                 improved, new.iteration, monitor.last_improvement
             ),
         )
-        state, monitor = jtu.tree_map(
-            lambda a, b: jnp.where(running, a, b),
-            (new, new_monitor),
-            (state, monitor),
+        return new, new_monitor
+
+    def body(carry, _):
+        state, monitor = carry
+        running = (
+            _stop_code(swarm, state, monitor, target, stall_iterations) == _RUNNING
         )
+        state, monitor = jax.lax.cond(running, advance, lambda c: c, carry)
         return (state, monitor), state.gbest_fitness
 
     (state, monitor), history = jax.lax.scan(
