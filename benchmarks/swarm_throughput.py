@@ -53,7 +53,7 @@ DURATION = 10.0  # seconds: one period of the paper's u1
 # --------------------------------------------------------------------------- options
 
 
-WIDE_VECTORS = "--xla_cpu_prefer_vector_width=512"
+WIDE_VECTORS = "--xla_cpu_prefer_vector_width=512 --xla_backend_extra_options=-force-vector-interleave=2"
 
 
 def parse_args(argv=None):
