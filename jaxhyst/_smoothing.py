@@ -40,10 +40,11 @@ def _safe_pow_jvp(primals, tangents):
     safe_base = jnp.where(positive, base, 1)
     log_base = jnp.log(safe_base)
     value = jnp.where(positive, jnp.exp(exponent * log_base), 0)
-    # d/dbase b^n = n b^(n-1) = n b^n / b: at b = 0 this is 1 for n == 1 and 0 for
-    # n > 1.
+    # d/dbase b^n = n b^(n-1): at b = 0 this is 1 for n == 1 and 0 for n > 1.
     at_zero = jnp.where(exponent == 1, 1.0, 0.0)
-    d_value_d_base = exponent * jnp.where(positive, value / safe_base, at_zero)
+    d_value_d_base = exponent * jnp.where(
+        positive, jnp.exp((exponent - 1) * log_base), at_zero
+    )
     # d/dn b^n = b^n log b, whose limit at b = 0 is 0.
     d_value_d_exponent = jnp.where(positive, value * log_base, 0)
     return value, d_value_d_base * d_base + d_value_d_exponent * d_exponent
