@@ -437,7 +437,8 @@ def _sample_jit(swarm, lower, upper, key):
 _SWARM_COMPILER_OPTIONS = {"xla_cpu_prefer_vector_width": 512}
 
 
-@eqx.filter_jit(compiler_options=_SWARM_COMPILER_OPTIONS)
+# equinox forwards extra keywords to jax.jit; its typed overloads do not list them.
+@eqx.filter_jit(compiler_options=_SWARM_COMPILER_OPTIONS)  # pyright: ignore[reportCallIssue]
 def _run_chunk(
     swarm: MPSO,
     objective,
