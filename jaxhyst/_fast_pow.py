@@ -11,7 +11,7 @@ RK4 step.
 Accuracy is that of the dtype: the polynomials are Chebyshev interpolants of
 log2(1 + f) on [sqrt(1/2) - 1, sqrt(2) - 1] and of 2**r on [-1/2, 1/2], computed in
 40-digit arithmetic (`docs/fast_pow_coefficients.py` regenerates them); their error
-is below the dtype's rounding (tests compare against `jnp.power`).
+is below the dtype's rounding (the tests compare against long double).
 """
 
 import jax

@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ._fast_pow import exp2, log2_positive
+from ._fast_pow import positive_pow
 
 
 @jax.custom_jvp
@@ -25,7 +25,7 @@ def safe_pow(base: Float[ArrayLike, "..."], exponent: Float[ArrayLike, "..."]):
     base = jnp.asarray(base)
     positive = base > 0
     safe_base = jnp.where(positive, base, 1)
-    return jnp.where(positive, exp2(exponent * log2_positive(safe_base)), 0)
+    return jnp.where(positive, positive_pow(safe_base, exponent), 0)
 
 
 @safe_pow.defjvp
