@@ -37,7 +37,6 @@ are synthetic: 750 Hz, force [N] -> displacement [m].
 """
 
 import argparse
-import importlib.metadata
 import json
 import os
 import platform
@@ -122,7 +121,7 @@ def machine() -> dict:
         "processor": cpu_name(),
         "cpu_count": os.cpu_count(),
         "jax": jax.__version__,
-        "jaxhyst": importlib.metadata.version("jaxhyst"),
+        "jaxhyst": jh.__version__,
         "devices": [str(d) for d in jax.devices()],
     }
 

@@ -199,13 +199,11 @@ def _print_confusion(rows, columns, table) -> None:
 
 
 def environment() -> dict[str, Any]:
-    import importlib.metadata
-
     return {
         "python": platform.python_version(),
         "platform": platform.platform(),
         "jax": jax.__version__,
-        "jaxhyst": importlib.metadata.version("jaxhyst"),
+        "jaxhyst": jh.__version__,
         "devices": [str(d) for d in jax.devices()],
         "x64": bool(jax.config.read("jax_enable_x64")),
     }

@@ -32,7 +32,6 @@ tell them apart.
 """
 
 import argparse
-import importlib.metadata
 import json
 import os
 import platform
@@ -107,7 +106,7 @@ def machine() -> dict:
         "processor": cpu_name(),
         "cpu_count": os.cpu_count(),
         "jax": jax.__version__,
-        "jaxhyst": importlib.metadata.version("jaxhyst"),
+        "jaxhyst": jh.__version__,
         "devices": [str(d) for d in jax.devices()],
     }
 

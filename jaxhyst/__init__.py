@@ -121,4 +121,7 @@ from ._synthetic import (
 )
 
 
-__version__ = importlib.metadata.version("jaxhyst")
+try:
+    __version__ = importlib.metadata.version("jaxhyst")
+except importlib.metadata.PackageNotFoundError:  # run from a source tree, not installed
+    __version__ = "unknown"

@@ -24,6 +24,7 @@ from ._inputs import InputPath
 from ._metrics import error_metrics
 from ._models.base import AbstractHysteresisModel
 from ._params import ParameterSpace
+from ._placement import moved_to, running_on, serial_device
 from ._recording import Recording
 from ._simulate import RK4, AbstractSimulationSolver, simulate, sum_squared_error
 from ._stability import is_bibo_stable
@@ -500,6 +501,7 @@ def identify(
     gauge: bool = True,
     analyse: bool = True,
     progress: bool = False,
+    polish_device: jax.Device | None = None,
 ) -> Fit:
     """Fit `model` (a template: its class, fixed parameters and smoothing) to `recording`.
 
@@ -521,6 +523,10 @@ def identify(
     - `stable_only`: give +inf fitness to parameter sets outside Table 2.
     - `weights`: per-sample weights of the loss (a 0/1 mask fits part of the record
       while the model still runs through all of it); metrics are over all samples.
+    - `polish_device`: where the polish and everything after it run (one trajectory
+      at a time: a sequential scan that a CPU runs faster than a GPU). None: the host
+      CPU when the default device is an accelerator, else the default device. The
+      swarm always runs on its own devices (all visible ones).
     """
     if not isinstance(recording, Recording):
         raise TypeError(
@@ -540,6 +546,7 @@ def identify(
             "swarm_samples_per_step(recording.u)."
         )
     recording.require_samples(20, what="identification")
+    device = serial_device(polish_device, "polish_device")
     t_start = time.perf_counter()
     inputs = recording.input_path()
     measured = jnp.asarray(recording.y)
@@ -582,21 +589,24 @@ def identify(
         seeds.append(swarm_result.best_x)
     if start is not None:
         seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
-    z = best_seed(problem, seeds)
-    polish_result = None
-    if polish is not None:
-        polish_result = polish.run(problem, z)
-        z = polish_result.z
-        timing["polish_s"] = polish_result.wall_seconds
-    fitted = _model_at(space, z)
-    predicted = _simulate_quietly(fitted, inputs, solver)
-    metrics = error_metrics(measured, predicted)
-    report = None
-    if analyse:
-        t0 = time.perf_counter()
-        report = identifiability(
-            fitted, inputs, measured, free=space.names, solver=solver
-        )
-        timing["identifiability_s"] = time.perf_counter() - t0
+    problem, seeds = moved_to((problem, seeds), device)
+    space, inputs, measured = problem.space, problem.inputs, problem.measured
+    with running_on(device):
+        z = best_seed(problem, seeds)
+        polish_result = None
+        if polish is not None:
+            polish_result = polish.run(problem, z)
+            z = polish_result.z
+            timing["polish_s"] = polish_result.wall_seconds
+        fitted = _model_at(space, z)
+        predicted = _simulate_quietly(fitted, inputs, solver)
+        metrics = error_metrics(measured, predicted)
+        report = None
+        if analyse:
+            t0 = time.perf_counter()
+            report = identifiability(
+                fitted, inputs, measured, free=space.names, solver=solver
+            )
+            timing["identifiability_s"] = time.perf_counter() - t0
     timing["total_s"] = time.perf_counter() - t_start
     return Fit(fitted, predicted, metrics, swarm_result, polish_result, report, timing)

@@ -28,6 +28,7 @@ from .._models.base import AbstractHysteresisModel
 from .._models.bouc_wen import PiezoBoucWen
 from .._models.extended import ExtendedPiezo
 from .._params import ParameterSpace
+from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
 from .._simulate import RK4, simulate
 from .._swarm import MPSO, run_swarm
@@ -518,6 +519,7 @@ def diagnose(
     significance: float = 1e-6,
     swarm: MPSO | None = MPSO(num_particles=100, num_iterations=200),
     progress: bool = False,
+    device: jax.Device | None = None,
 ) -> Diagnosis:
     """Find the physics a quasi-static piezo model leaves out of `recording`.
 
@@ -532,6 +534,9 @@ def diagnose(
     significant is left or `max_effects` are adopted.
 
     Lower `significance` to be stricter; raise `holdout_fraction` on long records.
+    `device`: where the diagnosis runs; None: the host CPU when the default device is
+    an accelerator (its refits and Jacobians integrate one trajectory at a time,
+    which a CPU runs faster), else the default device.
     """
     if not isinstance(recording, Recording):
         raise TypeError(
@@ -542,6 +547,31 @@ def diagnose(
             f"diagnose: holdout_fraction={holdout_fraction} must be in [0.05, 0.5]."
         )
     recording.require_samples(200, what="the diagnosis")
+    device = serial_device(device)
+    with running_on(device):
+        return _diagnose(
+            recording,
+            moved_to(key, device),
+            base=moved_to(base, device),
+            holdout_fraction=holdout_fraction,
+            max_effects=max_effects,
+            significance=significance,
+            swarm=swarm,
+            progress=progress,
+        )
+
+
+def _diagnose(
+    recording: Recording,
+    key: PRNGKeyArray,
+    *,
+    base: AbstractHysteresisModel | None,
+    holdout_fraction: float,
+    max_effects: int,
+    significance: float,
+    swarm: MPSO | None,
+    progress: bool,
+) -> Diagnosis:
     start_time = time.perf_counter()
     inputs = recording.input_path()
     measured = jnp.asarray(recording.y)
