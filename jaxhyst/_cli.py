@@ -15,7 +15,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NamedTuple, NoReturn
+from typing import NamedTuple, NoReturn, cast
 
 import jax
 import numpy as np
@@ -579,7 +579,7 @@ def _identify_corrected(recording: Recording, key, swarm: MPSO):
         analyse=False,
         progress=True,
     )
-    template = CorrectedPiezoBoucWen.from_piezo(first.model)
+    template = CorrectedPiezoBoucWen.from_piezo(cast(PiezoBoucWen, first.model))
     duration = recording.duration
     su = float(np.max(np.abs(recording.u)))
     reach = 2.0 / (su * duration)

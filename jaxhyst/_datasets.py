@@ -146,9 +146,9 @@ def load_bouc_wen_benchmark(
             "`pip install h5py` (or `pip install jaxhyst[data]`)."
         ) from None
     with h5py.File(train_path, "r") as file:
-        u = file["multisine/u"][()]
-        y = file["multisine/y"][()]
-        rate = float(np.asarray(file["multisine/fs"][()]).ravel()[0])
+        u = np.asarray(file["multisine/u"])
+        y = np.asarray(file["multisine/y"])
+        rate = float(np.asarray(file["multisine/fs"]).ravel()[0])
     if rate != _BW_RATE:
         raise ValueError(
             f"load_bouc_wen_benchmark: {str(train_path)!r} says fs = {rate}, expected "

@@ -247,7 +247,7 @@ class AdamPolish(AbstractPolish):
             loss = float(_problem_rmse(problem, z))
             history.append(loss)
             if np.isfinite(loss) and loss < best:
-                best_z, best = z, loss
+                best_z, best = jnp.asarray(z), loss
         return PolishResult(
             "AdamPolish",
             best_z,

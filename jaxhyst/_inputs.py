@@ -47,6 +47,7 @@ class CubicInterpolation(AbstractInterpolation):
 
     def on_interval(self, values, dt, interval, frac):
         n = values.shape[0]
+        interval = jnp.asarray(interval)
         p0 = values[interval]
         p1 = values[interval + 1]
         before = values[jnp.maximum(interval - 1, 0)]
@@ -54,7 +55,7 @@ class CubicInterpolation(AbstractInterpolation):
         # One-sided differences at the ends keep the path inside the data range.
         m0 = jnp.where(interval > 0, (p1 - before) / 2, p1 - p0)
         m1 = jnp.where(interval + 2 < n, (after - p0) / 2, p1 - p0)
-        s = frac
+        s = jnp.asarray(frac)
         s2 = s * s
         s3 = s2 * s
         value = (

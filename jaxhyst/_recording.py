@@ -107,10 +107,9 @@ class Recording(eqx.Module):
             f"input {input_name!r}",
             f"output {output_name!r}",
         )
-        t, u, y = (
-            _as_column(label, values, where)
-            for label, values in zip(labels, (t, u, y), strict=True)
-        )
+        t = _as_column(labels[0], t, where)
+        u = _as_column(labels[1], u, where)
+        y = _as_column(labels[2], y, where)
         if not t.shape == u.shape == y.shape:
             raise RecordingError(
                 f"{where}: length mismatch, t has {t.shape[0]}, {input_name} has "
@@ -148,10 +147,10 @@ class Recording(eqx.Module):
                     "interpolate linearly onto a uniform grid with the mean step, or "
                     "resample it yourself."
                 )
-            grid = t[0] + mean_step * np.arange(n)
+            grid = np.asarray(t[0] + mean_step * np.arange(n), dtype=np.float64)
             grid[-1] = t[-1]
-            u = np.interp(grid, t, u)
-            y = np.interp(grid, t, y)
+            u = np.asarray(np.interp(grid, t, u))
+            y = np.asarray(np.interp(grid, t, y))
             t = grid
         if np.ptp(u) == 0:
             raise RecordingError(

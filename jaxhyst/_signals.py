@@ -15,6 +15,7 @@ peak-to-peak swing. Use `sample(signal, rate)` to turn a signal into an `InputPa
 
 import abc
 import math
+from typing import TYPE_CHECKING, ClassVar
 
 import equinox as eqx
 import jax
@@ -85,7 +86,11 @@ class AbstractSignal(eqx.Module):
     `signal(t)` accepts any shape of `t` and returns u of the same shape.
     """
 
-    duration: eqx.AbstractVar[float]
+    if TYPE_CHECKING:
+        # An AbstractVar is a dataclass field to a type checker (see _models/base.py).
+        duration: ClassVar[float]
+    else:
+        duration: eqx.AbstractVar[float]
 
     @abc.abstractmethod
     def __call__(self, t: Real[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
@@ -488,7 +493,7 @@ class Concatenate(AbstractSignal):
     def __call__(self, t):
         t = _as_time(t)
         last = len(self.signals) - 1
-        out = None
+        values, starts = [], []
         start = 0.0
         for i, signal in enumerate(self.signals):
             local = t - start
@@ -499,9 +504,12 @@ class Concatenate(AbstractSignal):
                 local = jnp.where(local < 0, 0.0, local)
             if i < last:
                 local = jnp.where(local > signal.duration, signal.duration, local)
-            value = signal(local)
-            out = value if out is None else jnp.where(t >= start, value, out)
+            values.append(signal(local))
+            starts.append(start)
             start += signal.duration
+        out = values[0]
+        for start, value in zip(starts[1:], values[1:], strict=True):
+            out = jnp.where(t >= start, value, out)
         return out
 
 

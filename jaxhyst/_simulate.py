@@ -2,6 +2,7 @@
 fast under jit/vmap/grad) and a diffrax adaptive solver (the reference)."""
 
 import abc
+from typing import Literal, overload
 
 import diffrax
 import equinox as eqx
@@ -270,6 +271,30 @@ def _prepare(owner, model, inputs, solver, initial_state):
             f"{type(model).__name__}, got {initial_state.shape}."
         )
     return model, initial_state
+
+
+@overload
+def simulate(
+    model: AbstractHysteresisModel,
+    inputs: InputPath,
+    solver: AbstractSimulationSolver = ...,
+    *,
+    initial_state: Float[Array, " s"] | None = ...,
+    return_state: Literal[False] = ...,
+    throw: bool = ...,
+) -> Float[Array, " n"]: ...
+
+
+@overload
+def simulate(
+    model: AbstractHysteresisModel,
+    inputs: InputPath,
+    solver: AbstractSimulationSolver = ...,
+    *,
+    initial_state: Float[Array, " s"] | None = ...,
+    return_state: Literal[True],
+    throw: bool = ...,
+) -> tuple[Float[Array, " n"], Float[Array, "n s"]]: ...
 
 
 def simulate(

@@ -62,7 +62,7 @@ class AbstractSmoothing(eqx.Module):
 
     def abs(self, x: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
         """The (possibly smoothed) absolute value of `x`, equal to `x * sign(x)`."""
-        return x * self.sign(x)
+        return jnp.asarray(x) * self.sign(x)
 
     def abs_pow(
         self, x: Float[ArrayLike, "..."], exponent: Float[ArrayLike, "..."]
@@ -112,4 +112,5 @@ class AlgebraicSign(AbstractSmoothing):
             )
 
     def sign(self, x):
+        x = jnp.asarray(x)
         return x * jax.lax.rsqrt(x * x + self.width**2)

@@ -32,7 +32,12 @@ _PAPER_CASES = {1: (50, 500), 2: (100, 1500), 3: (300, 5000), 4: (500, 10000)}
 
 # Stop codes computed on device; `_STOP_REASONS` maps them to `SwarmResult.stop_reason`.
 _RUNNING, _MAX_ITERATIONS, _TARGET, _STALL = 0, 1, 2, 3
-_STOP_REASONS = {_MAX_ITERATIONS: "max_iterations", _TARGET: "target", _STALL: "stall"}
+StopReason = Literal["max_iterations", "target", "stall"]
+_STOP_REASONS: dict[int, StopReason] = {
+    _MAX_ITERATIONS: "max_iterations",
+    _TARGET: "target",
+    _STALL: "stall",
+}
 _NEVER = np.iinfo(np.int32).max
 
 # Sharded, each device's particle rows are padded to a multiple of this: whole
@@ -53,9 +58,10 @@ def _coefficient(x):
 
 def _concrete(x) -> np.ndarray | None:
     """`x` as a NumPy array, or None when it is traced (checks are then skipped)."""
-    if isinstance(x, jax.core.Tracer):
+    try:
+        return np.asarray(x)
+    except jax.errors.TracerArrayConversionError:
         return None
-    return np.asarray(x)
 
 
 def _is_int(x) -> bool:
@@ -218,7 +224,7 @@ class MPSO(eqx.Module):
                 f"`case` must be one of 1, 2, 3, 4 (Table 3), got {case!r}."
             )
         size, iterations = _PAPER_CASES[case]
-        kwargs = dict(
+        kwargs: dict[str, Any] = dict(
             num_particles=size,
             num_iterations=iterations,
             c1=1.3,
@@ -388,7 +394,7 @@ class SwarmResult(eqx.Module):
     evaluations: int
     wall_seconds: float
     compile_seconds: float
-    stop_reason: Literal["max_iterations", "target", "stall"]
+    stop_reason: StopReason
     state: SwarmState
 
 
@@ -502,9 +508,9 @@ class _CompileTimer:
     def __init__(self):
         self.seconds = 0.0
 
-    def __call__(self, event: str, duration: float, **kwargs) -> None:
+    def __call__(self, event: str, duration_secs: float, **kwargs: str | int) -> None:
         if event.startswith("/jax/core/compile/"):
-            self.seconds += duration
+            self.seconds += duration_secs
 
     def __enter__(self):
         jax.monitoring.register_event_duration_secs_listener(self)

@@ -5,7 +5,7 @@ parameters on held-out data, and repeat until nothing significant is left."""
 import dataclasses
 import math
 import time
-from typing import Any
+from typing import Any, cast
 
 import equinox as eqx
 import jax
@@ -420,8 +420,9 @@ def _refit(
         smallest=11 if problem.measured.size < inputs.num_samples else 8,
     )
     polish = LevenbergMarquardtPolish(max_steps=max_steps, min_gain=1e-5)
-    result = polish.run(active, active.start())
-    return _model_at(space, active.full(result.z))
+    # `_ActiveProblem` offers the part of `Problem` a polish uses.
+    result = polish.run(active, active.start())  # pyright: ignore[reportArgumentType]
+    return cast(ExtendedPiezo, _model_at(space, active.full(result.z)))
 
 
 class _ActiveProblem(eqx.Module):
@@ -493,7 +494,7 @@ def _holdout_blocks(n: int, fraction: float, blocks: int = 30) -> np.ndarray:
 def _noise_ratio(noise: np.ndarray, coef: np.ndarray, innovation_var: float) -> float:
     """N_eff / N for noise following the AR model: variance over long-run variance."""
     long_run = innovation_var / max(1e-12, (1 - float(np.sum(coef)))) ** 2
-    return float(min(1.0, max(1e-4, np.var(noise) / long_run)))
+    return min(1.0, max(1e-4, float(np.var(noise)) / long_run))
 
 
 def _mse(residual, mask):

@@ -17,12 +17,12 @@ def effective_samples(residual: np.ndarray, max_lag: int | None = None) -> float
     var = float(np.dot(r, r)) / n
     if var == 0:
         return float(n)
-    max_lag = max_lag or min(n // 4, 5000)
+    lags = max_lag or min(n // 4, 5000)
     spectrum = np.fft.rfft(r, 2 * n)
-    acov = np.fft.irfft(spectrum * np.conj(spectrum))[: max_lag + 1] / n
+    acov = np.fft.irfft(spectrum * np.conj(spectrum))[: lags + 1] / n
     rho = acov / acov[0]
     total = 0.0
-    for k in range(1, max_lag + 1):
+    for k in range(1, lags + 1):
         if rho[k] <= 0:
             break
         total += rho[k]

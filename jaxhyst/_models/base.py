@@ -7,7 +7,7 @@ so the same model runs unchanged under the scan-RK4 simulator and under diffrax.
 
 import abc
 from collections.abc import Callable
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar, Self
 
 import equinox as eqx
 import jax
@@ -48,7 +48,12 @@ class AbstractHysteresisModel(eqx.Module):
     fixed order) and `state_size`, and implement `vector_field` and `output`.
     """
 
-    smoothing: eqx.AbstractVar[AbstractSmoothing]
+    if TYPE_CHECKING:
+        # To a type checker an AbstractVar is a dataclass field, which would put
+        # `smoothing` first among every subclass's positional parameters.
+        smoothing: ClassVar[AbstractSmoothing]
+    else:
+        smoothing: eqx.AbstractVar[AbstractSmoothing]
     parameter_names: ClassVar[tuple[str, ...]]
     state_size: ClassVar[int]
 
@@ -97,7 +102,7 @@ class AbstractHysteresisModel(eqx.Module):
         """The parameter values by name, in `parameter_names` order."""
         return {name: getattr(self, name) for name in self.parameter_names}
 
-    def replace(self, **values: ArrayLike) -> "AbstractHysteresisModel":
+    def replace(self, **values: ArrayLike) -> Self:
         """A copy with some parameters replaced: `model.replace(k1=2.0)`."""
         unknown = sorted(set(values) - set(self.parameter_names))
         if unknown:
@@ -112,7 +117,7 @@ class AbstractHysteresisModel(eqx.Module):
             [as_parameter(values[name]) for name in names],
         )
 
-    def astype(self, dtype) -> "AbstractHysteresisModel":
+    def astype(self, dtype) -> Self:
         """A copy whose floating-point leaves have `dtype` (e.g. for float32 runs)."""
         return jax.tree.map(
             lambda x: (
@@ -150,4 +155,6 @@ def hysteretic_rate(
     which equals A*rate - beta*|rate|*|h|^(n-1)*h - gamma*rate*|h|^n."""
     s = smoothing
     h_pow = s.abs_pow(h, n)
-    return (amplitude - (beta * s.sign(rate) * s.sign(h) + gamma) * h_pow) * rate
+    return jnp.asarray(
+        (amplitude - (beta * s.sign(rate) * s.sign(h) + gamma) * h_pow) * rate
+    )

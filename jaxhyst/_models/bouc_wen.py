@@ -191,7 +191,8 @@ class CorrectedPiezoBoucWen(AbstractHysteresisModel):
             v, vdot = path.on_interval_shifted(interval, frac, self.phi)
         return ShiftedDrive(u, udot, v, vdot)
 
-    def vector_field(self, t, state, drive: ShiftedDrive):
+    # The drive is the one this model's `drive` returns.
+    def vector_field(self, t, state, drive: ShiftedDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
         s = self.smoothing
         hdot = hysteretic_rate(
             s, state[0], drive.vdot, self.A1, self.beta1, self.gamma1, self.n

@@ -6,7 +6,7 @@ by freeing their parameters; `dynamic=True` adds the stage's inertia and damping
 """
 
 import dataclasses
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import equinox as eqx
 import jax
@@ -151,7 +151,9 @@ class ExtendedPiezo(AbstractHysteresisModel):
         dynamic: bool = False,
     ) -> "ExtendedPiezo":
         """All effects off around a fitted piezo model, normalised to `inputs`."""
-        params = {k: base.parameters()[k] for k in PiezoBoucWen.parameter_names}
+        params: dict[str, Any] = {
+            k: base.parameters()[k] for k in PiezoBoucWen.parameter_names
+        }
         u = inputs.values
         rate = jnp.diff(u) / inputs.dt
         return cls(
@@ -211,7 +213,8 @@ class ExtendedPiezo(AbstractHysteresisModel):
             + self.wander * (5 * s**3 - 3 * s) / 2
         )
 
-    def vector_field(self, t, state, drive: ShiftedDrive):
+    # The drive is the one this model's `drive` returns.
+    def vector_field(self, t, state, drive: ShiftedDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
         s = self.smoothing
         h = state[0]
         gamma = self.gamma1 + self.skew * s.sign(h)
