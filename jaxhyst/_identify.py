@@ -526,7 +526,8 @@ def identify(
     - `polish_device`: where the polish and everything after it run (one trajectory
       at a time: a sequential scan that a CPU runs faster than a GPU). None: the host
       CPU when the default device is an accelerator, else the default device. The
-      swarm always runs on its own devices (all visible ones).
+      swarm runs where `run_swarm` puts it: the default device, or split over all
+      visible devices when there are several.
     """
     if not isinstance(recording, Recording):
         raise TypeError(
