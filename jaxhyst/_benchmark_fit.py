@@ -45,6 +45,7 @@ from ._metrics import error_metrics
 from ._models.base import AbstractHysteresisModel
 from ._models.oscillator import HystereticOscillator
 from ._params import ParameterSpace
+from ._placement import moved_to, running_on, serial_device
 from ._recording import Recording
 from ._simulate import RK4, AbstractSimulationSolver, simulate
 from ._swarm import MPSO, run_swarm
@@ -371,6 +372,7 @@ def fit_periodic(
     noise_sigma: float | None = None,
     analyse: bool = True,
     progress: bool = False,
+    polish_device: jax.Device | None = None,
 ) -> Fit:
     """Fit `template` (its class and fixed parameters; the free ones are `space`'s)
     to the steady-state period `period` (e.g. `average_periods(...).recording`).
@@ -388,6 +390,7 @@ def fit_periodic(
       better of the two seeds stage 2).
     - `noise_sigma`: noise of `period`'s output, for the standard errors (default:
       the residual RMS); for an average of P periods, `PeriodicAverage.mean_sigma`.
+    - `polish_device`: where stages 2-3 and the analysis run, as in `identify`.
 
     Returns a `Fit` whose `predicted` and `metrics` are over the period;
     `fit.polish` is the last polish stage that ran, `fit.timing` has every stage's
@@ -403,6 +406,7 @@ def fit_periodic(
             f"template is {type(template).__name__}."
         )
     space = space.with_template(template)  # its fixed parameters (e.g. nu) apply
+    device = serial_device(polish_device, "polish_device")
     t_start = time.perf_counter()
     timing: dict[str, float] = {}
     coarse = periodic_problem(space, period, coarse_simulation)
@@ -428,28 +432,30 @@ def fit_periodic(
         seeds.append(swarm_result.best_x)
     if start is not None:
         seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
-    z = best_seed(coarse, seeds)
-    polish_result = None
-    if prepolish is not None:
-        polish_result = prepolish.run(coarse, z)
-        z = polish_result.z
-        timing["prepolish_s"] = polish_result.wall_seconds
-    if polish is not None:
-        problem = periodic_problem(space, period, simulation)
-        polish_result = polish.run(problem, z)
-        z = polish_result.z
-        timing["polish_s"] = polish_result.wall_seconds
-    fitted = space.to_model(z)
-    predicted = simulation(fitted, period.u, period.dt)
-    metrics = error_metrics(period.y, predicted)
-    timing["fit_s"] = time.perf_counter() - t_start
-    report = None
-    if analyse:
-        t0 = time.perf_counter()
-        report = periodic_identifiability(
-            fitted, period, simulation, free=space.names, noise_sigma=noise_sigma
-        )
-        timing["identifiability_s"] = time.perf_counter() - t0
+    space, coarse, seeds = moved_to((space, coarse, seeds), device)
+    with running_on(device):
+        z = best_seed(coarse, seeds)
+        polish_result = None
+        if prepolish is not None:
+            polish_result = prepolish.run(coarse, z)
+            z = polish_result.z
+            timing["prepolish_s"] = polish_result.wall_seconds
+        if polish is not None:
+            problem = periodic_problem(space, period, simulation)
+            polish_result = polish.run(problem, z)
+            z = polish_result.z
+            timing["polish_s"] = polish_result.wall_seconds
+        fitted = space.to_model(z)
+        predicted = simulation(fitted, period.u, period.dt)
+        metrics = error_metrics(period.y, predicted)
+        timing["fit_s"] = time.perf_counter() - t_start
+        report = None
+        if analyse:
+            t0 = time.perf_counter()
+            report = periodic_identifiability(
+                fitted, period, simulation, free=space.names, noise_sigma=noise_sigma
+            )
+            timing["identifiability_s"] = time.perf_counter() - t0
     timing["total_s"] = time.perf_counter() - t_start
     return Fit(
         fitted,
