@@ -70,6 +70,7 @@ from ._models.bouc_wen import (
 )
 from ._models.extended import ExtendedPiezo as ExtendedPiezo
 from ._models.oscillator import HystereticOscillator as HystereticOscillator
+from ._models.structural import StructuralBoucWen as StructuralBoucWen
 from ._params import ParameterSpace as ParameterSpace
 from ._recording import Recording as Recording, RecordingError as RecordingError
 from ._signals import (

@@ -1,0 +1,186 @@
+"""The structural Bouc-Wen model with the structural family's effects built in.
+
+A restoring force F driven by an imposed displacement x (quasi-static cyclic tests of
+columns, walls and connections). With every effect's gain at zero it is exactly the
+seed's eq. 1-2 (`BoucWen` with D = 1, A = 1); the effects follow the forms OpenSees
+uses, so a fitted model exports exactly where OpenSees has the material:
+
+- degradation (Baber-Wen): nu = 1 + strength_degradation*e, eta = 1 + stiffness_degradation*e
+  with e the dissipated hysteretic energy; zdot = Phi/eta * xdot where
+  Phi = A - nu*(beta*sign(xdot*z) + gamma)*|z|^n (OpenSees `BoucWen`'s deltaNu, deltaEta);
+- pinching (Baber-Noori, Foliente's BWBN): zdot *= h(z) with
+  h = 1 - zeta1*exp(-((z*sign(xdot) - q*zu)/zeta2)^2), zeta1 = pinch*(1 - exp(-pinch_rate*e)),
+  zeta2 = pinch_width*zu*(pinch_lambda + zeta1), zu = (1/(beta + gamma))^(1/n)
+  (OpenSees `BWBN` with zetas = pinch, q = pinch_shift, p = pinch_rate, Shi = pinch_width*zu);
+- asymmetry (push and pull differ): gamma -> gamma + skew*sign(z) (the hysteretic force
+  saturates at different levels on the two sides) and
+  F += alpha*k*stiffness_skew*|x| (the post-yield stiffness differs by side);
+- drift: F += offset + trend*s + curvature*(s^2 - 1/3), s the time in [-1, 1]
+  (load-cell offsets and slow drift that do not follow the mechanics).
+
+The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the record,
+set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
+about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
+State: (z, e).
+"""
+
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .._inputs import InputPath
+from .._smoothing import AbstractSmoothing, ExactSign
+from .base import AbstractHysteresisModel, as_parameter
+from .bouc_wen import BoucWen
+
+
+def _field(default: float):
+    return eqx.field(converter=as_parameter, default=default)
+
+
+def _normaliser(default: float):
+    return eqx.field(converter=as_parameter, default=default, kw_only=True)
+
+
+class StructuralBoucWen(AbstractHysteresisModel):
+    """Bouc-Wen restoring force with degradation, pinching, asymmetry and drift (all
+    off at zero): F = alpha*k*x + (1 - alpha)*k*z (+ effects), z the hysteretic
+    displacement. See the module docstring for each effect's equations."""
+
+    k: Float[Array, ""] = eqx.field(converter=as_parameter)
+    alpha: Float[Array, ""] = eqx.field(converter=as_parameter)
+    A: Float[Array, ""] = eqx.field(converter=as_parameter)
+    beta: Float[Array, ""] = eqx.field(converter=as_parameter)
+    gamma: Float[Array, ""] = eqx.field(converter=as_parameter)
+    n: Float[Array, ""] = eqx.field(converter=as_parameter)
+    strength_degradation: Float[Array, ""] = _field(0.0)
+    stiffness_degradation: Float[Array, ""] = _field(0.0)
+    pinch: Float[Array, ""] = _field(0.0)
+    pinch_shift: Float[Array, ""] = _field(0.1)
+    pinch_width: Float[Array, ""] = _field(0.3)
+    pinch_rate: Float[Array, ""] = _field(5.0)
+    skew: Float[Array, ""] = _field(0.0)
+    stiffness_skew: Float[Array, ""] = _field(0.0)
+    offset: Float[Array, ""] = _field(0.0)
+    trend: Float[Array, ""] = _field(0.0)
+    curvature: Float[Array, ""] = _field(0.0)
+    pinch_lambda: Float[Array, ""] = _normaliser(0.5)
+    energy_scale: Float[Array, ""] = _normaliser(1.0)
+    time_center: Float[Array, ""] = _normaliser(0.0)
+    time_scale: Float[Array, ""] = _normaliser(1.0)
+    smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
+
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "k",
+        "alpha",
+        "A",
+        "beta",
+        "gamma",
+        "n",
+        "strength_degradation",
+        "stiffness_degradation",
+        "pinch",
+        "pinch_shift",
+        "pinch_width",
+        "pinch_rate",
+        "skew",
+        "stiffness_skew",
+        "offset",
+        "trend",
+        "curvature",
+    )
+    state_size: ClassVar[int] = 2
+
+    @classmethod
+    def from_bouc_wen(cls, base: BoucWen, **normalisers) -> "StructuralBoucWen":
+        """The same restoring force written with A = 1 and no D (the gauge this
+        model is fitted in): w = (D/A)*h obeys wdot = xdot - beta'*|xdot|*|w|^(n-1)*w
+        - gamma'*xdot*|w|^n with (beta', gamma') = (beta, gamma)*A^(n-1)/D^n, and the
+        output (1 - alpha)*D*k*h = (1 - alpha)*k*A*w: exactly `base`'s force for every
+        displacement history. Needs A > 0 and D > 0."""
+        D, A, n = base.D, base.A, base.n
+        if not (float(D) > 0 and float(A) > 0):
+            raise ValueError(
+                "StructuralBoucWen.from_bouc_wen: the base model needs D > 0 and A > 0 "
+                f"(got D={float(D):.4g}, A={float(A):.4g}); refit it with "
+                "ParameterSpace.default, which fixes D = 1."
+            )
+        scale = A ** (n - 1) / D**n
+        hysteretic = (1 - base.alpha) * base.k * A
+        elastic = base.alpha * base.k
+        k = elastic + hysteretic
+        return cls(
+            k,
+            elastic / k,
+            1.0,
+            base.beta * scale,
+            base.gamma * scale,
+            n,
+            smoothing=base.smoothing,
+            **normalisers,
+        )
+
+    @classmethod
+    def around(
+        cls, base: AbstractHysteresisModel, inputs: InputPath, output_scale: float
+    ) -> "StructuralBoucWen":
+        """All effects off around a fitted base model, normalised to the record."""
+        if isinstance(base, BoucWen):
+            base = cls.from_bouc_wen(base)
+        if not isinstance(base, StructuralBoucWen):
+            raise TypeError(
+                "StructuralBoucWen.around: base must be a BoucWen or StructuralBoucWen "
+                f"model, got {type(base).__name__}."
+            )
+        x = inputs.values
+        return cls(
+            base.k,
+            base.alpha,
+            base.A,
+            base.beta,
+            base.gamma,
+            base.n,
+            pinch_lambda=base.pinch_lambda,
+            energy_scale=jnp.maximum(output_scale * jnp.max(jnp.abs(x)), 1e-30),
+            time_center=(inputs.t0 + inputs.t1) / 2,
+            time_scale=(inputs.t1 - inputs.t0) / 2,
+            smoothing=base.smoothing,
+        )
+
+    def saturation(self) -> Float[Array, ""]:
+        """zu = (1/(beta + gamma))^(1/n): where the undegraded hysteretic
+        displacement saturates (OpenSees BWBN's zu)."""
+        total = jnp.maximum(self.beta + self.gamma, 1e-30)
+        return jnp.exp(-jnp.log(total) / self.n)
+
+    def vector_field(self, t, state, drive):
+        s = self.smoothing
+        z, energy = state[0], state[1]
+        xdot = drive.udot
+        nu = jnp.maximum(1 + self.strength_degradation * energy, 1e-2)
+        eta = jnp.maximum(1 + self.stiffness_degradation * energy, 1e-2)
+        gamma = self.gamma + self.skew * s.sign(z)
+        shape = (self.beta * s.sign(xdot) * s.sign(z) + gamma) * s.abs_pow(z, self.n)
+        phi = self.A - nu * shape
+        zu = self.saturation()
+        zeta1 = self.pinch * (1 - jnp.exp(-self.pinch_rate * energy))
+        zeta2 = self.pinch_width * zu * (self.pinch_lambda + zeta1)
+        zeta2 = jnp.where(jnp.abs(zeta2) > 1e-30, zeta2, 1e-30)
+        distance = (z * s.sign(xdot) - self.pinch_shift * zu) / zeta2
+        pinching = 1 - zeta1 * jnp.exp(-(distance**2))
+        zdot = pinching * phi * xdot / eta
+        edot = (1 - self.alpha) * self.k * z * xdot / self.energy_scale
+        return jnp.stack([zdot, edot])
+
+    def output(self, t, state, drive):
+        s = (t - self.time_center) / self.time_scale
+        x = drive.u
+        return (
+            self.alpha * self.k * (x + self.stiffness_skew * self.smoothing.abs(x))
+            + (1 - self.alpha) * self.k * state[0]
+            + self.offset
+            + self.trend * s
+            + self.curvature * (s**2 - 1.0 / 3.0)
+        )
