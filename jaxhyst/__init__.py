@@ -18,17 +18,37 @@ from ._datasets import (
     load_bouc_wen_benchmark as load_bouc_wen_benchmark,
     load_piezo_actuator as load_piezo_actuator,
 )
-from ._diagnose._catalogue import (
+from ._diagnose._diagnose import diagnose as diagnose
+from ._diagnose._effects.asymmetry import Asymmetry as Asymmetry
+from ._diagnose._effects.base import (
+    AbstractEffect as AbstractEffect,
+    RefitScales as RefitScales,
+)
+from ._diagnose._effects.creep import Creep as Creep
+from ._diagnose._effects.degradation import Degradation as Degradation
+from ._diagnose._effects.drift import Drift as Drift
+from ._diagnose._effects.dynamics import Dynamics as Dynamics
+from ._diagnose._effects.input_bias import InputBias as InputBias
+from ._diagnose._effects.pinching import Pinching as Pinching
+from ._diagnose._effects.push_pull import PushPullAsymmetry as PushPullAsymmetry
+from ._diagnose._effects.rate_dependence import RateDependence as RateDependence
+from ._diagnose._families import (
     CATALOGUE as CATALOGUE,
     EFFECT_NAMES as EFFECT_NAMES,
-    Effect as Effect,
+    STRUCTURAL_EFFECT_NAMES as STRUCTURAL_EFFECT_NAMES,
+    AbstractFamily as AbstractFamily,
+    PiezoFamily as PiezoFamily,
+    StructuralFamily as StructuralFamily,
 )
-from ._diagnose._engine import (
+from ._diagnose._locate import locate as locate, locate_cycles as locate_cycles
+from ._diagnose._policy import AdoptionPolicy as AdoptionPolicy
+from ._diagnose._results import (
     Diagnosis as Diagnosis,
     Finding as Finding,
-    diagnose as diagnose,
+    Score as Score,
+    Unexplained as Unexplained,
+    Validation as Validation,
 )
-from ._diagnose._locate import locate as locate
 from ._identify import (
     AbstractOptimistixPolish as AbstractOptimistixPolish,
     AbstractPolish as AbstractPolish,

@@ -20,8 +20,8 @@ from typing import NamedTuple, NoReturn, cast
 import jax
 import numpy as np
 
-from ._diagnose._catalogue import EFFECT_NAMES
-from ._diagnose._engine import diagnose
+from ._diagnose._diagnose import diagnose
+from ._diagnose._families import EFFECT_NAMES
 from ._identify import identify
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
@@ -378,18 +378,40 @@ def _add_recording_options(parser) -> None:
     )
     group = parser.add_argument_group("columns of the recording")
     for option, default in (("time", "t"), ("input", "u"), ("output", "y")):
+        index = ("t", "u", "y").index(default)
+        no_time = "" if option == "time" else f", with --no-time: {index - 1}"
         group.add_argument(
             f"--{option}",
             default=None,
             metavar="COLUMN",
             help=f"the {option} column: header name (default: {default}) or 0-based "
-            f"index (default with --no-header: {('t', 'u', 'y').index(default)}).",
+            f"index (default with --no-header: {index}{no_time}).",
         )
     group.add_argument(
         "--no-header",
         action="store_true",
         help="the text file has no header row; columns are picked by index.",
     )
+    group.add_argument(
+        "--no-time",
+        action="store_true",
+        help="the file has no time column: two columns (displacement, force), "
+        "whitespace- or comma-separated, without a header; read with the pseudo "
+        "time t = sample index (a quasi-static test; rate-independent models do not "
+        "depend on it).",
+    )
+
+
+def _quasi_static_column(text: str | None, index: int, option: str) -> int:
+    if text is None:
+        return index
+    text = text.strip()
+    if text not in ("0", "1"):
+        raise ValueError(
+            f"--{option} {text!r}: with --no-time the file has two columns, so pick "
+            f"0 or 1 (default: --{option} {index})."
+        )
+    return int(text)
 
 
 def _column(text: str | None, default: str, index: int, header: bool, option: str):
@@ -407,6 +429,20 @@ def _column(text: str | None, default: str, index: int, header: bool, option: st
 
 
 def _load_recording(args: argparse.Namespace) -> Recording:
+    if args.no_time:
+        if args.time is not None:
+            raise ValueError(
+                f"--time {args.time} with --no-time: a file without a time column "
+                "has none to pick; drop --time, or drop --no-time if the file has "
+                "one."
+            )
+        return Recording.load(
+            args.recording,
+            time=None,
+            input=_quasi_static_column(args.input, 0, "input"),
+            output=_quasi_static_column(args.output, 1, "output"),
+            header=False,
+        )
     header = not args.no_header
     return Recording.load(
         args.recording,

@@ -5,7 +5,10 @@ The data are not shipped with the package. They are looked up in `data_dir` (def
 missing file raises `FileNotFoundError` saying where to get it.
 """
 
+import csv
+import math
 import os
+import warnings
 from pathlib import Path
 
 import equinox as eqx
@@ -170,4 +173,192 @@ def load_bouc_wen_benchmark(
         train_ehh=train_ehh,
         test_multisine=tests["multisine"],
         test_sinesweep=tests["sinesweep"],
+    )
+
+
+# ------------------------------------------------------------ structural tests
+
+_BWBN_DIR = Path("structural_cyclic_bwbn_tmcmc")
+_BWBN_SOURCE = "download it from folder data/ of GitHub diegoandresalvarez/BWBN_TMCMC"
+_GILL_FILE = Path("structural_rc_column_gill_sebinoh") / "experimental data.mat"
+_GILL_SOURCE = (
+    "download 'Example/experimental data.mat' from GitHub sebin-oh/Bouc-Wen-class-model"
+)
+_TIMBER_DIR = Path("structural_timber_cslotboom")
+_TIMBER_CLT_SOURCE = (
+    "download 'examples/02 Basic Usage/2.2 Hysteresis with Noisey Data/"
+    "TS1_Experiment_Shear.csv' from GitHub cslotboom/hysteresis"
+)
+_TIMBER_SPC_SOURCE = (
+    "download 'examples/WTCE Examples/SPC1.csv' from GitHub cslotboom/hysteresis"
+)
+# The first 8420 samples of TS1_Experiment_Shear.csv: the actuator at rest and the
+# first cycles, below the displacement noise (upstream's example drops them too).
+_TIMBER_CLT_LEAD_IN = 8420
+
+STRUCTURAL_TESTS = (
+    "daniel",
+    "gill",
+    "kunnath",
+    "chiu",
+    "sharma",
+    "gill_sebinoh",
+    "timber_clt_wall",
+    "timber_steel_plate",
+)
+
+
+def _read_column(path: Path, source: str) -> np.ndarray:
+    """One number per line; a damaged file is an error (its partner file would no
+    longer line up)."""
+    with open(path, encoding="utf-8") as file:
+        lines = file.read().splitlines()
+    values = []
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        try:
+            value = float(line)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            raise ValueError(
+                f"{str(path)!r} line {number} holds {line.strip()!r}, not a finite "
+                f"number; the file is damaged: {source} again."
+            )
+        values.append(value)
+    return np.asarray(values, dtype=np.float64)
+
+
+def _read_rows(path: Path, skip: int, name: str) -> np.ndarray:
+    """The two comma-separated columns after `skip` header rows, as an (N, 2) array;
+    rows with a missing, non-numeric or non-finite cell are dropped with a warning."""
+    with open(path, encoding="utf-8-sig", newline="") as file:
+        rows = list(csv.reader(file))[skip:]
+    kept, dropped = [], []
+    for number, row in enumerate(rows, start=skip + 1):
+        try:
+            pair = [float(cell) for cell in row[:2]]
+        except ValueError:
+            pair = []
+        if len(pair) == 2 and all(math.isfinite(v) for v in pair):
+            kept.append(pair)
+        elif any(cell.strip() for cell in row):
+            dropped.append(number)
+    if dropped:
+        warnings.warn(
+            f"load_structural_test({name!r}): dropped {len(dropped)} row(s) of "
+            f"{str(path)!r} with a missing, non-numeric or non-finite value (the "
+            f"first at line {dropped[0]}).",
+            stacklevel=4,
+        )
+    return np.asarray(kept, dtype=np.float64).reshape(-1, 2)
+
+
+def _bwbn_test(name: str, data_dir) -> Recording:
+    displacement = _read_column(
+        _locate(data_dir, _BWBN_DIR / f"displ_{name}.txt", _BWBN_SOURCE),
+        _BWBN_SOURCE,
+    )
+    force = _read_column(
+        _locate(data_dir, _BWBN_DIR / f"load_kN_{name}.txt", _BWBN_SOURCE),
+        _BWBN_SOURCE,
+    )
+    return Recording.quasi_static(
+        displacement, force, name=name, input_unit="mm", output_unit="kN"
+    )
+
+
+def _gill_sebinoh(data_dir) -> Recording:
+    data = _mat_variable(_locate(data_dir, _GILL_FILE, _GILL_SOURCE), "data_exp")
+    if data.ndim != 2 or data.shape[1] != 2:
+        raise ValueError(
+            f"load_structural_test('gill_sebinoh'): data_exp has shape {data.shape}, "
+            f"expected (N, 2); {_GILL_SOURCE} again."
+        )
+    return Recording.quasi_static(
+        data[:, 0],
+        data[:, 1],
+        name="gill_sebinoh",
+        input_unit="m",
+        output_unit="g",
+    )
+
+
+def _timber_clt_wall(data_dir) -> Recording:
+    path = _locate(
+        data_dir, _TIMBER_DIR / "TS1_Experiment_Shear.csv", _TIMBER_CLT_SOURCE
+    )
+    data = _read_rows(path, 0, "timber_clt_wall")[_TIMBER_CLT_LEAD_IN:]
+    return Recording.quasi_static(
+        data[:, 0],
+        data[:, 1] / 1000.0,
+        name="timber_clt_wall",
+        input_unit="m",
+        output_unit="kN",
+    )
+
+
+def _timber_steel_plate(data_dir) -> Recording:
+    path = _locate(data_dir, _TIMBER_DIR / "SPC1.csv", _TIMBER_SPC_SOURCE)
+    data = _read_rows(path, 2, "timber_steel_plate")
+    return Recording.quasi_static(
+        data[:, 1],
+        data[:, 0],
+        name="timber_steel_plate",
+        input_unit="mm",
+        output_unit="kN",
+    )
+
+
+def load_structural_test(
+    name: str, *, data_dir: str | os.PathLike | None = None
+) -> Recording:
+    """A measured quasi-static cyclic test: imposed displacement -> restoring force,
+    as `Recording.quasi_static` (pseudo time t = sample index; `name` is the
+    recording's name). `name` is one of `STRUCTURAL_TESTS`:
+
+    - "daniel": lab test by D. Bedoya-Ruiz (specimen not described upstream), 380
+      points, +-7.2 mm, +-13 kN. Source of this and the next four: GitHub
+      diegoandresalvarez/BWBN_TMCMC (Ortiz, Alvarez & Bedoya-Ruiz 2015, Computers &
+      Structures 146), displ_<name>.txt [mm] and load_kN_<name>.txt [kN]; that paper
+      identifies degrading, pinching Bouc-Wen-Baber-Noori models on them.
+    - "gill": RC column (presumably Gill, Park & Priestley 1979), 627 points,
+      +-34 mm, -696..657 kN; stiffness and strength degrade with amplitude.
+    - "kunnath": RC test, 1326 points, +-29 mm, +-0.81 "kN" (as labelled; too small
+      for the stated 6 kN/mm stiffness, so probably normalised); degrading loops.
+    - "chiu": 2671 points, -307..330 mm, +-185 kN; strongly pinched loops.
+    - "sharma": 4456 points, +-31 mm, +-32 kN; pinched, degrading loops.
+    - "gill_sebinoh": Gill, Park & Priestley (1979) RC column via the PEER
+      Structural Performance Database, 481 points, +-0.031 m, lateral load
+      normalised by the weight [g] (GitHub sebin-oh/Bouc-Wen-class-model, Oh, Kim &
+      Song 2023, variable data_exp); likely the same test as "gill", processed
+      differently; degrading loops.
+    - "timber_clt_wall": CLT rocking shear wall (R. Ganey, MSc thesis, University of
+      Washington 2015), top displacement [m] -> shear force [kN] (the file's N /
+      1000), from GitHub cslotboom/hysteresis TS1_Experiment_Shear.csv. Its first
+      8420 of 9281 samples (the actuator at rest, then the first cycles buried in
+      the displacement noise) are dropped, as upstream's example does, leaving 861;
+      strongly pinched (rocking), noisy.
+    - "timber_steel_plate": perforated steel-plate connection for CLT walls
+      (Drexler, Dires & Tannert, WCTE 2021), 33028 points, +-85 mm, +-52 kN, from
+      cslotboom/hysteresis SPC1.csv (2 header rows, force [kN] then displacement
+      [mm]); pinched, degrading, with the connection failing in the last cycles.
+
+    Rows of the timber files with a missing, non-numeric or non-finite cell are
+    dropped with a warning (the published files have none); the other files must be
+    entirely numeric. Raises `ValueError` for an unknown name and
+    `FileNotFoundError`, saying where to get the file, when a file is missing.
+    """
+    if name in ("daniel", "gill", "kunnath", "chiu", "sharma"):
+        return _bwbn_test(name, data_dir)
+    if name == "gill_sebinoh":
+        return _gill_sebinoh(data_dir)
+    if name == "timber_clt_wall":
+        return _timber_clt_wall(data_dir)
+    if name == "timber_steel_plate":
+        return _timber_steel_plate(data_dir)
+    raise ValueError(
+        f"load_structural_test: unknown test {name!r}; choose from "
+        f"{', '.join(map(repr, STRUCTURAL_TESTS))}."
     )

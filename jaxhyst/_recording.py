@@ -16,7 +16,7 @@ from typing import Any
 
 import equinox as eqx
 import numpy as np
-from jaxtyping import ArrayLike, Float
+from jaxtyping import ArrayLike, Float, Int
 
 from ._inputs import AbstractInterpolation, InputPath
 
@@ -170,6 +170,60 @@ class Recording(eqx.Module):
         self.output_unit = output_unit
         self.time_unit = time_unit
 
+    @classmethod
+    def quasi_static(
+        cls,
+        displacement: Float[ArrayLike, " n"],
+        force: Float[ArrayLike, " n"],
+        *,
+        name: str = "recording",
+        pseudo_dt: float = 1.0,
+        input_name: str = "displacement",
+        output_name: str = "force",
+        input_unit: str = "",
+        output_unit: str = "",
+    ) -> "Recording":
+        """A quasi-static test without a time axis: imposed `displacement` (the
+        input `u`) and measured restoring `force` (the output `y`), one pair per
+        sample.
+
+        The time is a pseudo time t = k * pseudo_dt, k the sample index, labelled
+        `time_unit` "sample" when pseudo_dt = 1 and "pseudo s" otherwise.
+        Rate-independent models (Bouc-Wen and its degrading/pinching forms) give the
+        same force for any pseudo_dt; only rate-dependent terms (damping, mass)
+        would depend on it.
+        """
+        where = f"Recording {name!r}"
+        try:
+            pseudo_dt = float(pseudo_dt)
+        except (TypeError, ValueError):
+            raise RecordingError(
+                f"{where}: pseudo_dt must be a number, got {pseudo_dt!r}."
+            ) from None
+        if not (math.isfinite(pseudo_dt) and pseudo_dt > 0):
+            raise RecordingError(
+                f"{where}: pseudo_dt must be positive and finite, got {pseudo_dt}."
+            )
+        u = _as_column(f"input {input_name!r}", displacement, where)
+        y = _as_column(f"output {output_name!r}", force, where)
+        if u.shape != y.shape:
+            raise RecordingError(
+                f"{where}: {input_name} has {u.shape[0]} samples but {output_name} "
+                f"has {y.shape[0]}; pass one {output_name} value per {input_name} "
+                "value (trim the longer one, or check the files)."
+            )
+        return cls(
+            pseudo_dt * np.arange(u.shape[0], dtype=np.float64),
+            u,
+            y,
+            name=name,
+            input_name=input_name,
+            output_name=output_name,
+            input_unit=input_unit,
+            output_unit=output_unit,
+            time_unit="sample" if pseudo_dt == 1.0 else "pseudo s",
+        )
+
     # ------------------------------------------------------------------ properties
 
     @property
@@ -288,6 +342,60 @@ class Recording(eqx.Module):
             grid, np.interp(grid, self.t, self.u), np.interp(grid, self.t, self.y)
         )
 
+    def reversals(self, *, tolerance: float = 0.01) -> Int[np.ndarray, " r"]:
+        """The sample indices where the input `u` changes direction, in increasing
+        order (interior turning points only: not the first or last sample).
+
+        A turning-point detector with hysteresis: a running extremum counts as a
+        reversal once the input has come back from it by more than `tolerance` times
+        the input's range (max - min), so wiggles smaller than that (noise on a
+        measured displacement) are ignored. Of a flat extremum the first sample is
+        returned. Consecutive reversals bound half cycles, every second one whole
+        cycles.
+        """
+        try:
+            tolerance = float(tolerance)
+        except (TypeError, ValueError):
+            raise RecordingError(
+                f"Recording {self.name!r}: reversals tolerance must be a number, "
+                f"got {tolerance!r}."
+            ) from None
+        if not 0 <= tolerance < 1:
+            raise RecordingError(
+                f"Recording {self.name!r}: reversals tolerance must lie in [0, 1) "
+                f"(a fraction of the input's range), got {tolerance}; 0.01 ignores "
+                "wiggles below 1 % of the range."
+            )
+        u = self.u
+        threshold = tolerance * float(np.ptp(u))
+        found: list[int] = []
+        direction = 0  # +1 rising, -1 falling, 0 not yet known
+        lo = hi = extremum = 0
+        for k in range(1, u.shape[0]):
+            value = u[k]
+            if direction == 0:
+                # Until the input has moved by the threshold, the start's wiggles
+                # are not reversals; the first such move sets the direction.
+                hi = k if value > u[hi] else hi
+                lo = k if value < u[lo] else lo
+                if value - u[lo] > threshold:
+                    direction, extremum = 1, k
+                elif u[hi] - value > threshold:
+                    direction, extremum = -1, k
+            elif direction > 0:
+                if value > u[extremum]:
+                    extremum = k
+                elif u[extremum] - value > threshold:
+                    found.append(extremum)
+                    direction, extremum = -1, k
+            else:
+                if value < u[extremum]:
+                    extremum = k
+                elif value - u[extremum] > threshold:
+                    found.append(extremum)
+                    direction, extremum = 1, k
+        return np.asarray(found, dtype=np.int64)
+
     def require_samples(self, minimum: int, *, what: str = "this model") -> None:
         """Raise `RecordingError` unless the record has at least `minimum` samples."""
         if self.num_samples < minimum:
@@ -303,23 +411,29 @@ class Recording(eqx.Module):
         cls,
         path: str | os.PathLike,
         *,
-        time: str | int = "t",
-        input: str | int = "u",
-        output: str | int = "y",
-        header: bool = True,
+        time: str | int | None = "t",
+        input: str | int | None = None,
+        output: str | int | None = None,
+        header: bool | None = None,
         resample: bool = False,
         name: str | None = None,
     ) -> "Recording":
         """Read a recording from `.csv`/`.txt`, `.npz` or `.mat`.
 
-        `time`, `input` and `output` pick the columns: by header name for text files
-        with `header=True` (a unit in brackets, as in "u [V]", may be left out of the
-        name and becomes the unit), by 0-based column index (an int) for text files,
-        and by key/variable name for `.npz`/`.mat` (arrays shaped (N,), (1, N) or
-        (N, 1)). Text files may be comma, semicolon, tab or whitespace separated;
-        empty columns (such as a leading index column) are fine if not selected.
-        `resample=True` interpolates a non-uniform time axis onto a uniform grid with
-        the mean step. `name` defaults to the name stored by `save`, else the stem.
+        `time`, `input` and `output` pick the columns (default "t", "u", "y"): by
+        header name for text files with `header=True` (the default; a unit in
+        brackets, as in "u [V]", may be left out of the name and becomes the unit),
+        by 0-based column index (an int) for text files, and by key/variable name for
+        `.npz`/`.mat` (arrays shaped (N,), (1, N) or (N, 1)). Text files may be comma,
+        semicolon, tab or whitespace separated; empty columns (such as a leading
+        index column) are fine if not selected. `resample=True` interpolates a
+        non-uniform time axis onto a uniform grid with the mean step. `name` defaults
+        to the name stored by `save`, else the stem.
+
+        `time=None` reads a quasi-static test without a time column: a text file of
+        exactly two equally long columns, displacement and force (default `input=0`,
+        `output=1`, no header unless `header=True`), built with `quasi_static` (pseudo
+        time t = sample index).
         """
         path = Path(path)
         if not path.is_file():
@@ -328,6 +442,11 @@ class Recording(eqx.Module):
                 f"Recording.load: {str(path)!r} {reason}; check the path."
             )
         suffix = path.suffix.lower()
+        if time is None:
+            return cls._load_quasi_static(path, input, output, bool(header), name)
+        input = "u" if input is None else input
+        output = "y" if output is None else output
+        header = True if header is None else header
         if suffix in (".csv", ".txt"):
             columns, meta = _read_text(path, (time, input, output), header)
         elif suffix == ".npz":
@@ -353,6 +472,32 @@ class Recording(eqx.Module):
                 input_name=meta.pop("input_name", labels[0]),
                 output_name=meta.pop("output_name", labels[1]),
                 resample=resample,
+                **meta,
+            )
+        except RecordingError as error:
+            raise RecordingError(f"{path}: {error}") from None
+
+    @classmethod
+    def _load_quasi_static(
+        cls,
+        path: Path,
+        input: str | int | None,
+        output: str | int | None,
+        header: bool,
+        name: str | None,
+    ) -> "Recording":
+        if path.suffix.lower() not in (".csv", ".txt"):
+            raise RecordingError(
+                f"Recording.load: time=None reads two-column .csv/.txt files, not "
+                f"{path.suffix!r} ({str(path)!r}); load the arrays yourself and build "
+                "Recording.quasi_static(displacement, force)."
+            )
+        selectors = (0 if input is None else input, 1 if output is None else output)
+        columns, meta = _read_text(path, selectors, header, two_columns=True)
+        try:
+            return cls.quasi_static(
+                *columns,
+                name=path.stem if name is None else name,
                 **meta,
             )
         except RecordingError as error:
@@ -436,8 +581,14 @@ def _split_unit(cell: str) -> tuple[str, str | None]:
 
 
 def _read_text(
-    path: Path, selectors: Sequence[str | int], header: bool
+    path: Path,
+    selectors: Sequence[str | int],
+    header: bool,
+    *,
+    two_columns: bool = False,
 ) -> tuple[list[np.ndarray], dict[str, str]]:
+    """The selected columns (for (time, input, output), or for (input, output) when
+    `two_columns`, which also requires exactly two equally long columns)."""
     with open(path, encoding="utf-8-sig", newline="") as file:
         lines = [
             (number, line)
@@ -464,10 +615,13 @@ def _read_text(
                 f"Recording.load: {str(path)!r} has a header row but no data rows."
             )
     width = len(names) if names is not None else len(rows[0])
+    if two_columns:
+        _check_two_columns(path, rows, numbers, width)
+    roles = ("time", "input", "output")[-len(selectors) :]
 
     meta: dict[str, str] = {}
     indices = []
-    for role, selector in zip(("time", "input", "output"), selectors, strict=True):
+    for role, selector in zip(roles, selectors, strict=True):
         index, unit = _column_index(path, role, selector, names, width)
         indices.append(index)
         if unit is not None:
@@ -497,6 +651,40 @@ def _read_text(
                     "fix or drop that line, or check the column selection."
                 ) from None
     return columns, meta
+
+
+def _check_two_columns(
+    path: Path, rows: list[list[str]], numbers: list[int], width: int
+) -> None:
+    """Refuse a file read without time unless it has two equally long columns."""
+    where = f"Recording.load: {str(path)!r}"
+    wide = next(
+        ((n, len(r)) for r, n in zip(rows, numbers, strict=True) if len(r) > 2), None
+    )
+    if width > 2 or wide is not None:
+        number, cells = wide if wide is not None else (numbers[0], width)
+        raise RecordingError(
+            f"{where} line {number} has {cells} columns; without a time column the "
+            "file must have exactly two (displacement, force): drop the others, or "
+            "read it with its time column."
+        )
+    if max(len(r) for r in rows) < 2:
+        raise RecordingError(
+            f"{where} has one column; without a time column the file must have "
+            "exactly two (displacement, force), one pair per line."
+        )
+    counts = [sum(len(r) > i and bool(r[i].strip()) for r in rows) for i in (0, 1)]
+    if counts[0] != counts[1]:
+        short = next(
+            n
+            for r, n in zip(rows, numbers, strict=True)
+            if len(r) < 2 or not r[0].strip() or not r[1].strip()
+        )
+        raise RecordingError(
+            f"{where} has two columns of different lengths ({counts[0]} and "
+            f"{counts[1]} values, the first short row at line {short}); pass one "
+            "force value per displacement value, on the same line."
+        )
 
 
 def _column_index(

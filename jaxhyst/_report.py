@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ._diagnose._engine import Diagnosis
+from ._diagnose._results import Diagnosis
 from ._identify import Fit
 from ._plots import (
     plot_error_trend,
@@ -171,7 +171,13 @@ def _branches(recording: Recording) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def _final_label(diagnosis: Diagnosis) -> str:
-    return "+".join(("piezo", *diagnosis.effects))
+    return "+".join((diagnosis.base_name, *diagnosis.effects))
+
+
+def _base_label(diagnosis: Diagnosis) -> str:
+    return {"piezo": "quasi-static piezo model (eq. 7-8)"}.get(
+        diagnosis.base_name, f"{diagnosis.base_name} model (eq. 1-2)"
+    )
 
 
 # ------------------------------------------------------------------------ figures
@@ -255,7 +261,7 @@ def write_diagnosis_figures(
     final = np.asarray(diagnosis.final_predicted)
     final_name = _final_label(diagnosis)
     changed = bool(diagnosis.findings)
-    before_name = "base piezo model"
+    before_name = f"base {diagnosis.base_name} model"
     after_name = f"final {final_name}" if changed else "final (= base)"
     curves = {"measured": y, before_name: base}
     if changed:
@@ -473,7 +479,7 @@ def diagnosis_markdown(
     if diagnosis.findings:
         names = ", ".join(f"**{f.effect}**" for f in diagnosis.findings)
         out.append(
-            f"The quasi-static piezo model (eq. 7-8) leaves physics out of this "
+            f"The {_base_label(diagnosis)} leaves physics out of this "
             f"recording. Adopted, in order: {names}. With them the RMSE over the "
             f"whole record falls from {_number(scale * diagnosis.baseline['rmse'])} "
             f"to {_number(scale * diagnosis.final['rmse'])}{s} "
@@ -484,15 +490,22 @@ def diagnosis_markdown(
         out.append(
             "No missing physics found: no catalogue effect both passes the score "
             "test and lowers the error on the held-out data by more than its noise. "
-            f"The base piezo model's RMSE is {_number(scale * diagnosis.baseline['rmse'])}"
+            f"The base {diagnosis.base_name} model's RMSE is "
+            f"{_number(scale * diagnosis.baseline['rmse'])}"
             f"{s}."
         )
+    held = float(np.mean(diagnosis.heldout))
+    split = (
+        "in whole cycles interleaved through the test"
+        if diagnosis.family == "structural"
+        else "in blocks spread over it"
+    )
     out += [
         "",
-        f"The base model was fitted on {100 * (1 - diagnosis.holdout_fraction):.0f} % "
-        f"of the record; the other {100 * diagnosis.holdout_fraction:.0f} %, in blocks "
-        "spread over it, is held out to judge every candidate. The residual left at "
-        f"the end has RMS {_number(scale * diagnosis.noise_sigma)}{s}, lag-1 "
+        f"The base model was fitted on {100 * (1 - held):.0f} % of the record; the "
+        f"other {100 * held:.0f} %, {split}, is held out to judge every candidate. "
+        "The residual left at the end"
+        f" has RMS {_number(scale * diagnosis.noise_sigma)}{s}, lag-1 "
         f"autocorrelation {_number(diagnosis.noise.get('lag1_autocorrelation'), 3)}.",
         "",
         "## Error measures (Table 5/6 format)",
@@ -501,7 +514,7 @@ def diagnosis_markdown(
     rows: dict[str, Mapping[str, float]] = {}
     if fit is not None:
         rows[f"plain {type(fit.model).__name__} fit (all samples)"] = fit.metrics
-    rows["base piezo model (diagnosis)"] = diagnosis.baseline
+    rows[f"base {diagnosis.base_name} model (diagnosis)"] = diagnosis.baseline
     if diagnosis.findings:
         rows[f"final {final_name}"] = diagnosis.final
     out += [
@@ -527,9 +540,23 @@ def diagnosis_markdown(
             "- **Validation:**",
         ]
         out += [
-            f"  - {line}" for line in _validation_lines(finding.validation, scale, unit)
+            f"  - {line}"
+            for line in _validation_lines(finding.validation.to_dict(), scale, unit)
         ]
         out.append("")
+    out += ["## What the catalogue does not explain", ""]
+    if diagnosis.unexplained:
+        for item in diagnosis.unexplained:
+            out += [
+                f"- {item.description} (RMS {_number(scale * item.rms)}{s}); it "
+                f"resembles {item.resembles}; {item.where}.",
+            ]
+    else:
+        out.append(
+            "Nothing: no structure a model-free probe could learn on the fitted "
+            "samples predicts the held-out residual beyond its noise."
+        )
+    out.append("")
     out += ["## Ambiguities", ""]
     if diagnosis.ambiguities:
         out += [f"- {text}" for text in diagnosis.ambiguities]
@@ -680,7 +707,7 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
     lines = [
         f"recording: {recording.name}, {recording.num_samples} samples at "
         f"{recording.sample_rate:g} Hz; diagnosis took {diagnosis.seconds:.1f} s",
-        f"base model: piezo, RMSE {scale * before:.4g}{s}",
+        f"base model: {diagnosis.base_name}, RMSE {scale * before:.4g}{s}",
     ]
     if not diagnosis.findings:
         lines.append(
@@ -699,6 +726,8 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
             f"final model: {_final_label(diagnosis)}, RMSE {scale * after:.4g}{s} "
             f"({100 * (after / before - 1):+.0f} % vs the base model)"
         )
+    for item in diagnosis.unexplained:
+        lines.append(f"unexplained: {item.description}; it resembles {item.resembles}")
     if diagnosis.ambiguities:
         lines.append("ambiguities:")
         lines += [f"  - {text}" for text in diagnosis.ambiguities]

@@ -2,6 +2,7 @@
 
 import io
 import json
+import math
 import re
 import subprocess
 import sys
@@ -509,3 +510,71 @@ def test_demo_end_to_end(tmp_path, capsys):
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
     assert links and all((out / link).is_file() for link in links)
     assert main(["demo", "--out", str(out)]) == 2  # no --force: refused
+
+
+# ------------------------------------------------------------ quasi-static files
+
+
+@pytest.fixture(scope="module")
+def two_columns(tmp_path_factory):
+    """A Bouc-Wen force under a growing cyclic displacement, 241 rows of
+    "displacement force" without header or time."""
+    k = np.arange(241)
+    displacement = 0.01 * k * np.sin(2 * np.pi * k / 40)
+    model = jh.BoucWen(k=2.0, alpha=0.3, D=1.0, A=1.0, beta=0.5, gamma=0.5, n=1.5)
+    force = np.asarray(jh.simulate(model, jh.InputPath(0.0, 1.0, displacement)))
+    path = tmp_path_factory.mktemp("quasi_static") / "cyclic.txt"
+    np.savetxt(path, np.stack([displacement, force], axis=1))
+    return path, displacement, force
+
+
+class TestNoTime:
+    """`--no-time`: a two-column (displacement, force) file read with the pseudo
+    time t = sample index."""
+
+    def test_fit_reads_a_two_column_file(self, two_columns, tmp_path, capsys):
+        path, displacement, force = two_columns
+        out = tmp_path / "fit.json"
+        argv = ["fit", str(path), "--no-time", "--model", "bouc-wen"]
+        assert main([*argv, "--particles", "8", "--iterations", "3"]) == 0
+        assert "241 samples at 1 Hz over 240 s" in capsys.readouterr().out
+        # Comma-separated, columns swapped and picked by index, with a JSON.
+        swapped = tmp_path / "swapped.csv"
+        np.savetxt(swapped, np.stack([force, displacement], axis=1), delimiter=",")
+        argv = ["fit", str(swapped), "--no-time", "--input", "1", "--output", "0"]
+        argv += ["--model", "bouc-wen", "--particles", "8", "--iterations", "3"]
+        assert main([*argv, "--json", str(out)]) == 0
+        data = _strict_json(out)
+        assert data["recording"]["samples"] == 241
+        assert data["model"] == "BoucWen"
+        assert math.isfinite(data["metrics"]["rmse"])
+        recording = jh.Recording.load(swapped, time=None, input=1, output=0)
+        np.testing.assert_allclose(recording.u, displacement, rtol=1e-15)
+        np.testing.assert_allclose(recording.y, force, rtol=1e-15)
+        np.testing.assert_array_equal(recording.t, np.arange(241.0))
+
+    @pytest.mark.parametrize(
+        "content, options, expected",
+        [
+            ("0 0\n1 2\n2 3\n1\n", [], "two columns of different lengths (4 and 3"),
+            ("0,0\n1,2\n2,3\n1,\n", [], "two columns of different lengths (4 and 3"),
+            ("0 0 0\n1 2 1\n2 3 2\n", [], "line 1 has 3 columns"),
+            ("0 0\n1 2\n2 3\n", ["--time", "0"], "--time 0 with --no-time"),
+            ("0 0\n1 2\n2 3\n", ["--input", "2"], "pick 0 or 1"),
+        ],
+    )
+    def test_bad_files_and_options_are_one_line_errors(
+        self, content, options, expected, tmp_path, capsys
+    ):
+        path = tmp_path / "recording.txt"
+        path.write_text(content)
+        out = tmp_path / "out.json"
+        argv = ["fit", str(path), "--no-time", *options, "--json", str(out)]
+        assert main([*argv, "--model", "bouc-wen", *QUICK]) == 2
+        assert expected in _one_error_line(capsys, quiet=True)
+        assert not out.exists()
+
+    def test_help_describes_the_option(self, capsys):
+        assert main(["fit", "--help"]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        assert "--no-time" in text and "pseudo time t = sample index" in text

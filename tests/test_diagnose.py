@@ -87,7 +87,7 @@ def test_diagnose_rejects_bad_input():
 
 
 def test_near_miss_overlapping_an_adopted_effect_is_reported():
-    from jaxhyst._diagnose._engine import _standing_in
+    from jaxhyst._diagnose._ambiguity import standing_in
 
     t = np.linspace(0.0, 45.0, 4501)
     slow_mode = np.stack([1 - np.exp(-t / 30.0)], axis=1)  # an adopted creep mode
@@ -95,19 +95,26 @@ def test_near_miss_overlapping_an_adopted_effect_is_reported():
     unrelated = np.stack([np.sin(2 * np.pi * t)], axis=1)
 
     def result(effect, after, accepted=False, resolution=0.01, bic=-10.0):
-        validation = {
-            "heldout_rmse_before": 1.05,
-            "heldout_rmse_after": after,
-            "heldout_resolution_mse": resolution,
-            "bic_change": bic,
-            "accepted": accepted,
-        }
-        return {"candidate": {"effect": effect}, "validation": validation}
+        validation = jh.Validation(
+            heldout_rmse_before=1.05,
+            heldout_rmse_after=after,
+            fit_rmse_before=1.0,
+            fit_rmse_after=1.0,
+            heldout_margin_mse=0.05,
+            heldout_resolution_mse=resolution,
+            effective_samples_heldout=1000.0,
+            bic_change=bic,
+            score_statistic=100.0,
+            score_dof=2,
+            log10_p=-10.0,
+            accepted=accepted,
+        )
+        return (effect, validation)
 
     projected = {"drift": thermal, "asymmetry": unrelated}
     adopted = {"creep": slow_mode}
     near = [result("drift", 1.03)]  # 4 % gain: beyond its noise, under 5 %
-    messages = _standing_in(near, projected, adopted)
+    messages = standing_in(near, projected, adopted)
     assert len(messages) == 1
     assert (
         messages[0].startswith("drift may also be present") and "creep" in messages[0]
@@ -115,24 +122,22 @@ def test_near_miss_overlapping_an_adopted_effect_is_reported():
     # Not reported: a gain within the noise, a worse BIC, an accepted candidate,
     # or a signature unlike any adopted effect's.
     assert (
-        _standing_in([result("drift", 1.03, resolution=0.1)], projected, adopted) == []
+        standing_in([result("drift", 1.03, resolution=0.1)], projected, adopted) == []
     )
-    assert _standing_in([result("drift", 1.03, bic=5.0)], projected, adopted) == []
-    assert _standing_in([result("drift", 1.0, accepted=True)], projected, adopted) == []
-    assert _standing_in([result("asymmetry", 1.03)], projected, adopted) == []
+    assert standing_in([result("drift", 1.03, bic=5.0)], projected, adopted) == []
+    assert standing_in([result("drift", 1.0, accepted=True)], projected, adopted) == []
+    assert standing_in([result("asymmetry", 1.03)], projected, adopted) == []
 
 
 def test_runner_up_swapped_in_keeps_its_refitted_parameters():
-    from jaxhyst._diagnose._engine import _switch_off, _with_effect
-
     base = jh.PiezoBoucWen(1.0, 0.3, -1.0, 0.002, -0.001, 1.5)
     path = jh.sample(jh.paper_u1(), 100.0)
     current = jh.ExtendedPiezo.around(base, path).replace(phi=0.01, eps=0.02)
     source = jh.ExtendedPiezo.around(base, path).with_dynamics(40.0, 0.3)
-    swapped = _with_effect(_switch_off(current, "input_bias"), "dynamics", source)
+    swapped = jh.Dynamics().take_from(jh.InputBias().switch_off(current), source)
     assert swapped.dynamic and float(swapped.natural_frequency) == 40.0
     assert float(swapped.phi) == 0.0 and float(swapped.eps) == 0.02
-    back = _with_effect(_switch_off(swapped, "dynamics"), "input_bias", current)
+    back = jh.InputBias().take_from(jh.Dynamics().switch_off(swapped), current)
     assert not back.dynamic and float(back.phi) == 0.01
     np.testing.assert_allclose(
         jh.simulate(back, path), jh.simulate(current, path), rtol=0, atol=1e-12
@@ -140,18 +145,9 @@ def test_runner_up_swapped_in_keeps_its_refitted_parameters():
 
 
 def test_creep_evidence_without_holds_reads_as_words_not_nan():
-    from jaxhyst._diagnose._engine import _evidence
-
     t = np.linspace(0.0, 5.0, 5001)
     u = 75 * np.sin(2 * np.pi * t)
     where = jh.locate(t, u, np.random.default_rng(0).standard_normal(t.size))
     where["after_hold"]["relative"] = float("nan")  # as `locate` gives without holds
-    validation = {
-        "heldout_rmse_before": 0.2,
-        "heldout_rmse_after": 0.15,
-        "score_statistic": 3000.0,
-        "score_dof": 4,
-        "log10_p": -50.0,
-    }
-    text = _evidence("creep", {"validation": validation}, where)
+    text = jh.Creep().evidence(where, None)
     assert "nan" not in text and "no holds" in text

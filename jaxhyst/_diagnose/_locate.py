@@ -124,3 +124,88 @@ def describe(where: dict[str, Any]) -> str:
         + "; ".join(parts)
         + f"; dominant residual frequency {where['dominant_frequency_hz']:.3g} Hz"
     )
+
+
+def locate_cycles(
+    x: np.ndarray, force: np.ndarray, residual: np.ndarray
+) -> dict[str, Any]:
+    """Where a quasi-static cyclic test's residual lives, relative to its overall RMS.
+
+    Categories: push (x > 0) / pull (x < 0); loading (|x| growing) / unloading;
+    near zero force (|F| < 15 % of its peak, where pinching shows) and reloading
+    through it; near the peaks of each excursion (|x| > 70 % of the largest |x| so
+    far); the first / last third of the test. Also the slow trend (a moving average
+    over 1/25 of the record), the dissipated energy in units of max|F| * max|x|
+    and, at the peaks of the last third, the mean of residual * sign(F) (negative:
+    the model's force is too large there, as when strength degrades).
+    """
+    overall = _rms(residual)
+    n = residual.size
+    step = np.diff(x, prepend=x[0])
+    loading = x * step > 0
+    near_zero = np.abs(force) < 0.15 * np.max(np.abs(force))
+    envelope = np.maximum.accumulate(np.abs(x))
+    peaks = np.abs(x) > 0.7 * np.maximum(envelope, 1e-300)
+    third = np.arange(n) * 3 // n
+    kernel = max(1, n // 25)
+    trend = np.convolve(residual, np.ones(kernel) / kernel, mode="same")
+    energy = float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(x)))
+    scale = max(float(np.max(np.abs(force)) * np.max(np.abs(x))), 1e-300)
+    late_peaks = peaks & (third == 2)
+
+    def category(mask):
+        return {
+            "rms": _rms(residual[mask]),
+            "mean": float(np.mean(residual[mask])) if mask.any() else float("nan"),
+            "fraction": float(np.mean(mask)),
+            "relative": _rms(residual[mask]) / overall if overall > 0 else float("nan"),
+        }
+
+    return {
+        "overall_rms": overall,
+        "push": category(x > 0),
+        "pull": category(x < 0),
+        "loading": category(loading),
+        "unloading": category(~loading),
+        "near_zero_force": category(near_zero),
+        "reloading_near_zero_force": category(near_zero & ~loading),
+        "peaks": category(peaks),
+        "first_third": category(third == 0),
+        "last_third": category(third == 2),
+        "late_peak_force_excess": (
+            float(np.mean((residual * np.sign(force))[late_peaks]))
+            if late_peaks.any()
+            else float("nan")
+        ),
+        "slow_trend_rms": _rms(trend),
+        "dissipated_energy": energy / scale,
+        "effective_samples": effective_samples(residual),
+    }
+
+
+def describe_cycles(where: dict[str, Any]) -> str:
+    """One sentence naming the parts of a cyclic test where the residual stands
+    out."""
+    labels = {
+        "push": "in push (x > 0)",
+        "pull": "in pull (x < 0)",
+        "near_zero_force": "near zero force",
+        "reloading_near_zero_force": "on reloading through zero force",
+        "peaks": "at the peaks of the excursions",
+        "first_third": "in the first third of the test",
+        "last_third": "in the last third of the test",
+    }
+    parts = []
+    for key, label in labels.items():
+        entry = where[key]
+        if entry["fraction"] > 0.01 and entry["relative"] > 1.25:
+            parts.append(f"{label} ({entry['relative']:.1f}x the overall RMS)")
+    overall = where["overall_rms"]
+    if overall > 0 and where["slow_trend_rms"] > 0.5 * overall:
+        parts.append(
+            f"as a slow trend along the test ({where['slow_trend_rms'] / overall:.0%} "
+            "of it survives a moving average over 1/25 of the record)"
+        )
+    if not parts:
+        parts.append("spread evenly over the test")
+    return "mismatch " + "; ".join(parts)

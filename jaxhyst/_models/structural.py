@@ -15,7 +15,8 @@ uses, so a fitted model exports exactly where OpenSees has the material:
 - asymmetry (push and pull differ): gamma -> gamma + skew*sign(z) (the hysteretic force
   saturates at different levels on the two sides) and
   F += alpha*k*stiffness_skew*|x| (the post-yield stiffness differs by side);
-- drift: F += offset + trend*s + curvature*(s^2 - 1/3), s the time in [-1, 1]
+- drift: F += offset + trend*s + curvature*(s^2 - 1/3) + wander*(5 s^3 - 3 s)/2
+  (Legendre terms), s the time in [-1, 1]
   (load-cell offsets and slow drift that do not follow the mechanics).
 
 The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the record,
@@ -66,6 +67,7 @@ class StructuralBoucWen(AbstractHysteresisModel):
     offset: Float[Array, ""] = _field(0.0)
     trend: Float[Array, ""] = _field(0.0)
     curvature: Float[Array, ""] = _field(0.0)
+    wander: Float[Array, ""] = _field(0.0)
     pinch_lambda: Float[Array, ""] = _normaliser(0.5)
     energy_scale: Float[Array, ""] = _normaliser(1.0)
     time_center: Float[Array, ""] = _normaliser(0.0)
@@ -90,6 +92,7 @@ class StructuralBoucWen(AbstractHysteresisModel):
         "offset",
         "trend",
         "curvature",
+        "wander",
     )
     state_size: ClassVar[int] = 2
 
@@ -183,4 +186,5 @@ class StructuralBoucWen(AbstractHysteresisModel):
             + self.offset
             + self.trend * s
             + self.curvature * (s**2 - 1.0 / 3.0)
+            + self.wander * (5 * s**3 - 3 * s) / 2
         )

@@ -1,0 +1,74 @@
+"""Statements of what the recording cannot tell apart."""
+
+import math
+
+import numpy as np
+
+from ._results import Validation
+from ._score import max_canonical_correlation, moving_columns
+
+
+def standing_in(
+    rejected: list[tuple[str, Validation]],
+    signatures: dict[str, np.ndarray],
+    adopted: dict[str, np.ndarray],
+    *,
+    overlap: float = 0.9,
+    min_gain: float = 0.05,
+) -> list[str]:
+    """Ambiguities for rejected candidates (effect, validation) that beat the
+    held-out noise and the information criterion, and failed only the minimum-gain
+    floor, while their signature (`signatures[effect]`: output sensitivities,
+    columns) overlaps an adopted effect's (`adopted[effect]`): the adopted effect may
+    be standing in for them (e.g. a slow creep mode and a thermal drift on a record
+    whose input mean is steady)."""
+    messages = []
+    for effect, v in rejected:
+        gain = v.heldout_rmse_before**2 - v.heldout_rmse_after**2
+        if v.accepted or gain <= v.heldout_resolution_mse or v.bic_change >= 0:
+            continue
+        raw = moving_columns(signatures[effect])
+        for name, cols in adopted.items():
+            if raw.shape[1] == 0 or cols.shape[1] == 0:
+                continue
+            correlation = max_canonical_correlation(raw, cols)
+            if correlation > overlap:
+                percent = 100 * gain / v.heldout_rmse_before**2
+                messages.append(
+                    f"{effect} may also be present: adding it lowered the held-out "
+                    f"error by {percent:.1f} % (more than its noise, and the "
+                    f"information criterion agrees), short of the {min_gain:.0%} "
+                    f"adoption needs; its signature overlaps that of {name} (canonical "
+                    f"correlation {correlation:.2f}), which may be standing in for "
+                    "part of it. Vary the excitation (levels, rates, amplitudes) to "
+                    "separate them."
+                )
+                break
+    return messages
+
+
+def cannot_tell(
+    winner: str,
+    other: str,
+    winner_rmse: float,
+    other_rmse: float,
+    correlation: float,
+) -> str:
+    return (
+        f"cannot tell {winner} from {other} on this recording: both explain the "
+        f"mismatch about equally (held-out RMSE {winner_rmse:.3g} vs {other_rmse:.3g}; "
+        f"their signatures overlap, canonical correlation {correlation:.2f}). Vary the "
+        f"excitation (rates, frequencies, amplitudes, holds) to separate them; "
+        f"{winner} is kept for the fit."
+    )
+
+
+def cannot_tell_after(
+    kept: str, alternative: str, later: str, kept_mse: float, alternative_mse: float
+) -> str:
+    return (
+        f"cannot tell {kept} from {alternative} on this recording: with {later} "
+        f"modelled, either explains the held-out data as well (RMSE "
+        f"{math.sqrt(kept_mse):.3g} vs {math.sqrt(alternative_mse):.3g}); {kept} is "
+        "kept."
+    )

@@ -1,0 +1,828 @@
+"""The diagnosis: fit the family's base model, score every catalogue effect on the
+residual, refit the strongest, keep an effect only if it earns its parameters on
+held-out data, and repeat; then check the choices backwards, revisit them, refit
+on everything, and say what the catalogue does not explain.
+
+Each stage is a function of the typed `_Context` (what does not change) and the
+`_State` (what the stages build up).
+"""
+
+import dataclasses
+import math
+import time
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, PRNGKeyArray
+
+from .._identify import identify
+from .._inputs import InputPath
+from .._metrics import error_metrics
+from .._models.base import AbstractHysteresisModel
+from .._placement import moved_to, running_on, serial_device
+from .._recording import Recording
+from .._simulate import RK4
+from .._swarm import MPSO
+from ._ambiguity import cannot_tell, cannot_tell_after, standing_in
+from ._effects.base import AbstractEffect, RefitScales
+from ._families import AbstractFamily, PiezoFamily
+from ._locate import effective_samples
+from ._policy import AdoptionPolicy
+from ._refit import RefitSettings, fitted_names, refit
+from ._results import Diagnosis, Finding, Score, Unexplained, Validation
+from ._score import (
+    NoiseModel,
+    chi2,
+    jacobian,
+    max_canonical_correlation,
+    moving_columns,
+    predict,
+    project_off,
+    score_statistic,
+)
+from ._unexplained import unexplained_structure
+
+
+class _Context(eqx.Module):
+    """What every stage reads and none changes."""
+
+    recording: Recording
+    family: AbstractFamily
+    policy: AdoptionPolicy
+    key: PRNGKeyArray
+    inputs: InputPath
+    measured: Array
+    y: np.ndarray
+    fit_mask: np.ndarray
+    hold_mask: np.ndarray
+    weights: Array
+    solver: RK4
+    sample_rate: float
+    duration: float
+
+
+class _Trial(eqx.Module):
+    """A candidate refitted: its score, the model, its output, its validation."""
+
+    score: Score
+    model: AbstractHysteresisModel
+    predicted: np.ndarray
+    validation: Validation
+
+
+class _State(eqx.Module):
+    """What the stages build up."""
+
+    current: AbstractHysteresisModel
+    predicted: np.ndarray
+    free: tuple[str, ...]
+    findings: tuple[Finding, ...] = ()
+    ambiguities: tuple[str, ...] = ()
+    rounds: tuple[list[Score], ...] = ()
+    # The trials that also passed validation in the round an effect was adopted,
+    # with where the mismatch was then: revisited once later effects are in.
+    runners_up: dict[str, tuple[list[_Trial], dict[str, Any]]] = eqx.field(
+        default_factory=dict
+    )
+    noise: NoiseModel | None = None
+    effective_heldout: float = 0.0
+    # How far each parameter must move to change the output by its RMS (the
+    # latest round's sensitivities).
+    natural: dict[str, float] = eqx.field(default_factory=dict)
+
+    @property
+    def adopted(self) -> tuple[str, ...]:
+        return tuple(f.effect for f in self.findings)
+
+
+def _mse(residual: np.ndarray, mask) -> float:
+    return float(np.mean(residual[mask] ** 2))
+
+
+def _finite(x: np.ndarray) -> bool:
+    return bool(np.all(np.isfinite(x)))
+
+
+def _refit(
+    ctx: _Context,
+    state: _State,
+    model,
+    free,
+    *,
+    max_steps: int,
+    key: PRNGKeyArray | None = None,
+    weights: Array | None = None,
+    natural: dict[str, float] | None = None,
+):
+    """A refit on this recording with the current natural scales."""
+    scales = RefitScales(
+        ctx.sample_rate, ctx.duration, state.natural if natural is None else natural
+    )
+    settings = RefitSettings(
+        max_steps, ctx.policy.refit_swarm, ctx.family.refit_stride(model, ctx.recording)
+    )
+    return refit(
+        ctx.family,
+        model,
+        list(free),
+        ctx.inputs,
+        ctx.measured,
+        ctx.weights if weights is None else weights,
+        ctx.solver,
+        scales,
+        settings,
+        key=key,
+    )
+
+
+def _predict(ctx: _Context, model) -> np.ndarray:
+    return predict(model, ctx.inputs, ctx.solver)
+
+
+# ------------------------------------------------------------------- base fit
+
+
+def _base_fit(
+    ctx: _Context,
+    base: AbstractHysteresisModel | None,
+    swarm: MPSO | None,
+    progress: bool,
+) -> tuple[_State, AbstractHysteresisModel]:
+    """The base model fitted on the fit mask (unless given), and the extended model
+    around it with every effect off."""
+    if base is None:
+        fit = identify(
+            ctx.family.base_template(),
+            ctx.recording,
+            key=ctx.key,
+            space=ctx.family.base_space(ctx.recording),
+            swarm=swarm,
+            solver=ctx.solver,
+            weights=ctx.weights,
+            analyse=False,
+            progress=progress,
+        )
+        base = fit.model
+    current = ctx.family.extend(base, ctx.recording)
+    state = _State(current, _predict(ctx, current), ctx.family.base_free)
+    return state, base
+
+
+# ------------------------------------------------------------------ score test
+
+
+def _score_round(
+    ctx: _Context, state: _State
+) -> tuple[_State, list[Score], dict[str, float], dict[str, np.ndarray]]:
+    """Score every effect not yet adopted: the residual's projection on the
+    effect's directions after removing what the free parameters absorb, against an
+    AR(2) noise model read from what no candidate explains. Also returns every
+    parameter's natural scale and output sensitivities at the current model."""
+    family, current = ctx.family, state.current
+    remaining = [e for e in family.catalogue if e.name not in state.adopted]
+    sensitive = set()
+    for effect in family.catalogue:
+        sensitive |= set(effect.sensitivity_parameters(current))
+    owned = {p for e in family.catalogue for p in e.parameters}
+    names = [
+        n for n in fitted_names(family, current) if n not in owned or n in sensitive
+    ]
+    jac = jacobian(current, names, ctx.inputs, ctx.solver)
+    column = {name: jac[:, i] for i, name in enumerate(names)}
+    residual = ctx.y - state.predicted
+    w = ctx.fit_mask.astype(float)
+    base_cols = np.stack([column[p] for p in state.free], axis=1)
+    dt = float(ctx.inputs.dt)
+    projected = {}
+    for effect in remaining:
+        cols = effect.directions(column, state.predicted, dt)
+        projected[effect.name] = (cols, project_off(base_cols, cols, w))
+    # The noise's colour, read from what no candidate explains.
+    everything = np.concatenate([p for _, p in projected.values()], axis=1)
+    coef, *_ = np.linalg.lstsq(everything, residual * w, rcond=None)
+    noise = NoiseModel.estimate((residual * w - everything @ coef)[ctx.fit_mask])
+    scores = []
+    for effect in remaining:
+        cols, perp = projected[effect.name]
+        params = [p for p in effect.parameters]
+        norms = np.linalg.norm(perp, axis=0)
+        usable = norms > 1e-9 * (np.linalg.norm(cols, axis=0) + 1e-300)
+        if not usable.any():
+            continue
+        perp = perp[:, usable]
+        stat = score_statistic(perp, residual * w, noise.ar, noise.innovation_var)
+        dof = perp.shape[1]
+        threshold = float(chi2().isf(ctx.policy.significance, dof))
+        step, *_ = np.linalg.lstsq(perp, residual * w, rcond=None)
+        scores.append(
+            Score(
+                effect.name,
+                stat,
+                dof,
+                float(chi2().logsf(stat, dof) / np.log(10)),
+                float(np.sum((perp @ step) ** 2) / max(1, w.sum())),
+                bool(stat > threshold),
+                dict(zip([p for p, ok in zip(params, usable) if ok], step.tolist())),
+                perp,
+            )
+        )
+    scores.sort(key=lambda c: -c.statistic / c.dof)
+    rms_y = float(np.sqrt(np.mean(ctx.y**2)))
+    natural = {}
+    for p, col in column.items():
+        norm = float(np.sqrt(np.mean(col**2)))
+        natural[p] = rms_y / norm if norm > 0 else 1.0
+    state = dataclasses.replace(
+        state,
+        noise=noise,
+        effective_heldout=noise.effective_ratio * float(ctx.hold_mask.sum()),
+    )
+    return state, scores, natural, column
+
+
+# ---------------------------------------------------------------------- refits
+
+
+def _best_start(ctx: _Context, effect: AbstractEffect, current, step, scales):
+    """The starting point with the lowest error on the fitted samples."""
+    best, best_mse = current, float("inf")
+    for trial in effect.starting_points(current, step, scales):
+        pred = _predict(ctx, trial)
+        if not _finite(pred):
+            continue
+        mse = float(np.mean((ctx.y - pred)[ctx.fit_mask] ** 2))
+        if mse < best_mse:
+            best, best_mse = trial, mse
+    return best, best_mse
+
+
+def _validate(
+    ctx: _Context, state: _State, score: Score, effect: AbstractEffect, new_pred
+) -> Validation:
+    """Held-out and fitted errors before and after, and the adoption rule: the
+    held-out MSE drop must beat its own noise (its resolution) and the minimum
+    gain, and the information criterion on the fitted samples must fall."""
+    assert state.noise is not None  # set by the round's score test
+    residual, new_res = ctx.y - state.predicted, ctx.y - new_pred
+    before_hold, after_hold = (
+        _mse(residual, ctx.hold_mask),
+        _mse(new_res, ctx.hold_mask),
+    )
+    before_fit, after_fit = _mse(residual, ctx.fit_mask), _mse(new_res, ctx.fit_mask)
+    n_eff_fit = state.noise.effective_ratio * ctx.fit_mask.sum()
+    change = float(np.sqrt(np.mean((new_pred - state.predicted)[ctx.hold_mask] ** 2)))
+    resolution = state.noise.resolution(change, state.effective_heldout)
+    margin = max(ctx.policy.min_heldout_gain * before_hold, resolution)
+    p = len(effect.parameters)
+    bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(n_eff_fit)
+    return Validation(
+        math.sqrt(before_hold),
+        math.sqrt(after_hold),
+        math.sqrt(before_fit),
+        math.sqrt(after_fit),
+        margin,
+        resolution,
+        state.effective_heldout,
+        bic_change,
+        score.statistic,
+        score.dof,
+        score.log10_p,
+        bool(before_hold - after_hold > margin and bic_change < 0),
+    )
+
+
+def _refit_candidates(
+    ctx: _Context, state: _State, scores: list[Score]
+) -> tuple[list[Score], list[_Trial]]:
+    """Refit the strongest significant candidates (plus those whose effect asks
+    for it) from their best starting points; validate each on held-out data.
+    Returns the round's scores with what became of each, and the trials."""
+    family, policy = ctx.family, ctx.policy
+    significant = [c for c in scores if c.significant]
+    chosen = significant[: policy.refits_per_round] + [
+        c
+        for c in significant[policy.refits_per_round :]
+        if family.effect(c.effect).always_refit()
+    ]
+    scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
+    starts = {}
+    updated = {c.effect: c for c in scores}
+    for c in chosen:
+        effect = family.effect(c.effect)
+        starts[c.effect], start_mse = _best_start(
+            ctx, effect, state.current, c.step, scales
+        )
+        updated[c.effect] = dataclasses.replace(c, start_mse=start_mse)
+    for c in scores:
+        if c.effect not in starts:
+            reason = (
+                "not significant"
+                if not c.significant
+                else f"significant, but not among the {policy.refits_per_round} "
+                "strongest this round"
+            )
+            updated[c.effect] = dataclasses.replace(updated[c.effect], rejection=reason)
+    trials = []
+    for c in chosen:
+        effect = family.effect(c.effect)
+        names = list(state.free) + list(effect.parameters)
+        key = jax.random.fold_in(ctx.key, 1000 * len(state.findings) + len(trials))
+        refitted = _refit(
+            ctx,
+            state,
+            starts[c.effect],
+            names,
+            max_steps=policy.candidate_steps,
+            key=key,
+        )
+        new_pred = _predict(ctx, refitted)
+        if not _finite(new_pred):
+            updated[c.effect] = dataclasses.replace(
+                updated[c.effect], rejection="the refitted model diverged"
+            )
+            continue
+        validation = _validate(ctx, state, c, effect, new_pred)
+        score = dataclasses.replace(updated[c.effect], validation=validation)
+        if not validation.accepted:
+            score = dataclasses.replace(score, rejection=_why_rejected(validation))
+        updated[c.effect] = score
+        trials.append(_Trial(score, refitted, new_pred, validation))
+    return [updated[c.effect] for c in scores], trials
+
+
+def _why_rejected(v: Validation) -> str:
+    gain = v.heldout_rmse_before**2 - v.heldout_rmse_after**2
+    if gain <= v.heldout_margin_mse:
+        return (
+            f"held-out MSE fell by {gain:.3g}, not more than the {v.heldout_margin_mse:.3g} "
+            "adoption needs (its resolution or the minimum gain)"
+        )
+    return f"the information criterion rose by {v.bic_change:.3g}"
+
+
+# -------------------------------------------------------------------- adoption
+
+
+def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
+    """Adopt the accepted trial with the lowest held-out error (saying which others
+    explain it as well), then converge the model with it before looking further:
+    an under-fitted winner leaves structure that would pass for a further effect."""
+    family, policy = ctx.family, ctx.policy
+    assert state.noise is not None
+    accepted = sorted(
+        (t for t in trials if t.validation.accepted),
+        key=lambda t: t.validation.heldout_rmse_after,
+    )
+    winner = accepted[0]
+    name = winner.score.effect
+    ambiguities = list(state.ambiguities)
+    for other in accepted[1:]:
+        # Ambiguous: the two fits differ on held-out data by less than the held-out
+        # comparison can resolve, and their signatures overlap.
+        difference = (
+            other.validation.heldout_rmse_after**2
+            - winner.validation.heldout_rmse_after**2
+        )
+        apart = float(
+            np.sqrt(np.mean((other.predicted - winner.predicted)[ctx.hold_mask] ** 2))
+        )
+        resolution = state.noise.resolution(apart, state.effective_heldout)
+        overlap = max_canonical_correlation(
+            winner.score.directions, other.score.directions
+        )
+        if difference < resolution and overlap > policy.overlap:
+            ambiguities.append(
+                cannot_tell(
+                    name,
+                    other.score.effect,
+                    winner.validation.heldout_rmse_after,
+                    other.validation.heldout_rmse_after,
+                    overlap,
+                )
+            )
+    where_now = family.locate(ctx.recording, ctx.y - state.predicted)
+    effect = family.effect(name)
+    finding = Finding(
+        name,
+        _evidence(effect, winner.validation, where_now, winner.model),
+        family.describe(where_now),
+        float(winner.score.statistic),
+        {p: float(getattr(winner.model, p)) for p in effect.parameters},
+        error_metrics(ctx.y, state.predicted),
+        error_metrics(ctx.y, winner.predicted),
+        winner.validation,
+    )
+    free = state.free + tuple(p for p in effect.parameters if p not in state.free)
+    current = _refit(ctx, state, winner.model, free, max_steps=policy.converge_steps)
+    predicted = _predict(ctx, current)
+    if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
+        ctx.y - winner.predicted, ctx.fit_mask
+    ):
+        current, predicted = winner.model, winner.predicted
+    return dataclasses.replace(
+        state,
+        current=current,
+        predicted=predicted,
+        free=free,
+        findings=state.findings + (finding,),
+        ambiguities=tuple(ambiguities),
+        runners_up={**state.runners_up, name: (accepted[1:], where_now)},
+    )
+
+
+def _near_misses(
+    ctx: _Context, state: _State, column: dict[str, np.ndarray], trials: list[_Trial]
+) -> list[str]:
+    """When nothing was adopted: rejected candidates that an adopted effect may be
+    standing in for. Signatures are compared beyond what the base model's own
+    parameters explain (both sides are largely functions of the input otherwise)."""
+    family = ctx.family
+    w = ctx.fit_mask.astype(float)
+    base_only = np.stack([column[p] for p in family.base_free], axis=1)
+
+    def signature(effect: AbstractEffect) -> np.ndarray:
+        names = [p for p in effect.parameters if p in column]
+        if not names:
+            return np.zeros((ctx.y.size, 0))
+        return moving_columns(np.stack([column[p] for p in names], axis=1))
+
+    adopted = {
+        name: project_off(base_only, signature(family.effect(name)), w)
+        for name in state.adopted
+    }
+    raw = {}
+    for trial in trials:
+        effect = family.effect(trial.score.effect)
+        raw[effect.name] = project_off(
+            base_only,
+            effect.directions(column, state.predicted, float(ctx.inputs.dt)),
+            w,
+        )
+    rejected = [(t.score.effect, t.validation) for t in trials]
+    return standing_in(
+        rejected,
+        raw,
+        adopted,
+        overlap=ctx.policy.overlap,
+        min_gain=ctx.policy.min_heldout_gain,
+    )
+
+
+def _forward(ctx: _Context, state: _State) -> _State:
+    """Forward selection: score, refit, adopt; until nothing is accepted."""
+    for _ in range(ctx.policy.max_effects):
+        state, scores, natural, column = _score_round(ctx, state)
+        if any(c.significant for c in scores):
+            # Refits (this round's and any later stage's) use these scales.
+            state = dataclasses.replace(state, natural=natural)
+        scores, trials = _refit_candidates(ctx, state, scores)
+        state = dataclasses.replace(state, rounds=state.rounds + (scores,))
+        if not any(t.validation.accepted for t in trials):
+            near = _near_misses(ctx, state, column, trials) if trials else []
+            return dataclasses.replace(
+                state, ambiguities=state.ambiguities + tuple(near)
+            )
+        state = _adopt(ctx, state, trials)
+    return state
+
+
+# ------------------------------------------------------- backward check, swaps
+
+
+def _backward(ctx: _Context, state: _State) -> _State:
+    """Drop any adopted effect that no longer earns its place once later ones are
+    in (e.g. a rate dependence that was standing in for an input network)."""
+    family = ctx.family
+    while len(state.findings) >= 2:
+        assert state.noise is not None
+        hold_now = _mse(ctx.y - state.predicted, ctx.hold_mask)
+        weakest = None
+        for finding in state.findings:
+            effect = family.effect(finding.effect)
+            names = tuple(p for p in state.free if p not in effect.parameters)
+            reduced = _refit(
+                ctx, state, effect.switch_off(state.current), names, max_steps=20
+            )
+            reduced_pred = _predict(ctx, reduced)
+            if not _finite(reduced_pred):
+                continue
+            loss = _mse(ctx.y - reduced_pred, ctx.hold_mask) - hold_now
+            change = float(
+                np.sqrt(np.mean((reduced_pred - state.predicted)[ctx.hold_mask] ** 2))
+            )
+            needed = max(
+                ctx.policy.min_heldout_gain * _mse(ctx.y - reduced_pred, ctx.hold_mask),
+                state.noise.resolution(change, state.effective_heldout),
+            )
+            if loss < needed and (weakest is None or loss < weakest[1]):
+                weakest = (finding, loss, reduced, reduced_pred, names)
+        if weakest is None:
+            break
+        finding, _, current, predicted, free = weakest
+        findings = tuple(f for f in state.findings if f is not finding)
+        message = (
+            f"{finding.effect} was adopted, then dropped: once "
+            f"{', '.join(f.effect for f in findings)} had been added it no longer "
+            "lowered the held-out error by more than its noise."
+        )
+        state = dataclasses.replace(
+            state,
+            current=current,
+            predicted=predicted,
+            free=free,
+            findings=findings,
+            ambiguities=state.ambiguities + (message,),
+        )
+    return state
+
+
+def _swaps(ctx: _Context, state: _State) -> _State:
+    """Revisit greedy choices: an effect adopted while a later one was still
+    unmodelled may have won by soaking up part of that one. With the later effects
+    in the model, each runner-up of its round is tried in its place, and replaces it
+    if it explains the held-out data better beyond the noise."""
+    family = ctx.family
+    for position in range(len(state.findings) - 1):
+        assert state.noise is not None
+        finding = state.findings[position]
+        adopted_effect = family.effect(finding.effect)
+        others, where_then = state.runners_up.get(finding.effect, ([], {}))
+        for other in others:
+            alternative = family.effect(other.score.effect)
+            if alternative.name in state.adopted:
+                continue
+            names = tuple(
+                p for p in state.free if p not in adopted_effect.parameters
+            ) + tuple(alternative.parameters)
+            trial = alternative.take_from(
+                adopted_effect.switch_off(state.current), other.model
+            )
+            swapped = _refit(
+                ctx,
+                state,
+                trial,
+                names,
+                max_steps=20,
+                key=jax.random.fold_in(ctx.key, 7919 + position),
+            )
+            swapped_pred = _predict(ctx, swapped)
+            if not _finite(swapped_pred):
+                continue
+            hold_now = _mse(ctx.y - state.predicted, ctx.hold_mask)
+            hold_swapped = _mse(ctx.y - swapped_pred, ctx.hold_mask)
+            change = float(
+                np.sqrt(np.mean((swapped_pred - state.predicted)[ctx.hold_mask] ** 2))
+            )
+            resolution = state.noise.resolution(change, state.effective_heldout)
+            later = ", ".join(f.effect for f in state.findings[position + 1 :])
+            if hold_now - hold_swapped <= resolution:
+                if hold_swapped - hold_now <= resolution:
+                    state = dataclasses.replace(
+                        state,
+                        ambiguities=state.ambiguities
+                        + (
+                            cannot_tell_after(
+                                finding.effect,
+                                alternative.name,
+                                later,
+                                hold_now,
+                                hold_swapped,
+                            ),
+                        ),
+                    )
+                continue
+            message = (
+                f"{finding.effect} was adopted first, then replaced by "
+                f"{alternative.name}: once {later} had been added, {alternative.name} "
+                f"explains the held-out data better (RMSE {math.sqrt(hold_swapped):.3g} "
+                f"vs {math.sqrt(hold_now):.3g}, beyond its noise)."
+            )
+            replacement = Finding(
+                alternative.name,
+                _evidence(alternative, other.validation, where_then, swapped),
+                family.describe(where_then),
+                float(other.score.statistic),
+                {p: float(getattr(swapped, p)) for p in alternative.parameters},
+                finding.before,
+                error_metrics(ctx.y, other.predicted),
+                dataclasses.replace(other.validation, replaced=finding.effect),
+            )
+            findings = list(state.findings)
+            findings[position] = replacement
+            current = _refit(
+                ctx, state, swapped, names, max_steps=ctx.policy.converge_steps
+            )
+            predicted = _predict(ctx, current)
+            if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
+                ctx.y - swapped_pred, ctx.fit_mask
+            ):
+                current, predicted = swapped, swapped_pred
+            state = dataclasses.replace(
+                state,
+                current=current,
+                predicted=predicted,
+                free=names,
+                findings=tuple(findings),
+                ambiguities=state.ambiguities + (message,),
+            )
+            break
+    return state
+
+
+def _final_refit(
+    ctx: _Context, state: _State
+) -> tuple[AbstractHysteresisModel, np.ndarray]:
+    """With effects adopted, the model refitted on every sample."""
+    if not state.findings:
+        return state.current, state.predicted
+    # Unit weights rather than None: the same structure as the masked refits, so
+    # this fit reuses their compiled Levenberg-Marquardt program.
+    final_model = _refit(
+        ctx,
+        state,
+        state.current,
+        state.free,
+        max_steps=ctx.policy.final_steps,
+        weights=jnp.ones_like(ctx.weights),
+        natural={},
+    )
+    final_pred = _predict(ctx, final_model)
+    if _finite(final_pred) and _mse(ctx.y - final_pred, slice(None)) <= _mse(
+        ctx.y - state.predicted, slice(None)
+    ):
+        return final_model, final_pred
+    return state.current, state.predicted
+
+
+def _evidence(
+    effect: AbstractEffect, v: Validation, where: dict[str, Any], model
+) -> str:
+    return (
+        f"{effect.meaning}. Score test: statistic {v.score_statistic:.3g} on "
+        f"{v.score_dof} dof (log10 p = {v.log10_p:.1f}); {effect.evidence(where, model)}. "
+        f"Adding it cut the held-out RMSE by {v.heldout_gain:.0%} "
+        f"({v.heldout_rmse_before:.3g} -> {v.heldout_rmse_after:.3g})."
+    )
+
+
+# --------------------------------------------------------------------- diagnose
+
+
+def diagnose(
+    recording: Recording,
+    *,
+    key: PRNGKeyArray,
+    family: AbstractFamily = PiezoFamily(),
+    base: AbstractHysteresisModel | None = None,
+    holdout_fraction: float = 0.3,
+    policy: AdoptionPolicy = AdoptionPolicy(),
+    swarm: MPSO | None = MPSO(num_particles=100, num_iterations=200),
+    progress: bool = False,
+    device: jax.Device | None = None,
+) -> Diagnosis:
+    """Find the physics `family`'s base model leaves out of `recording`.
+
+    1. Hold-out: about `holdout_fraction` of the record is held out, as the family
+       splits it (piezo: 30 short blocks interleaved through the record; structural:
+       whole cycles, interleaved, one per amplitude level).
+    2. Base fit: the family's base model on the fitted samples (or `base`).
+    3. Forward selection, per round: every effect not yet adopted is scored by a
+       Lagrange-multiplier test, the residual's projection on the effect's
+       directions after removing what the free parameters absorb, with the residual
+       and directions pre-whitened by an AR(2) noise model read from what no
+       candidate explains (coloured noise does not pass for physics). The
+       strongest significant candidates are refitted (best starting point, short
+       swarm, Levenberg-Marquardt) and one is adopted only if it lowers the
+       held-out error by more than its resolution and the policy's minimum gain and
+       lowers an information criterion on the fitted samples.
+    4. Backward check, then swaps: effects that no longer earn their place are
+       dropped, runners-up that explain the held-out data better replace them.
+    5. Final refit on every sample, and the residual that remains structured on
+       held-out data but matches no effect is reported as `unexplained`.
+
+    `policy` holds the adoption rules (`AdoptionPolicy`). `device`: where the
+    diagnosis runs; None: the host CPU when the default device is an accelerator
+    (its refits and Jacobians integrate one trajectory at a time, which a CPU
+    runs faster), else the default device.
+    """
+    if not isinstance(recording, Recording):
+        raise TypeError(
+            f"diagnose: recording must be a Recording, got {type(recording).__name__}."
+        )
+    if not isinstance(family, AbstractFamily):
+        raise TypeError(
+            "diagnose: family must be a family object such as jh.PiezoFamily() or "
+            f"jh.StructuralFamily(), got {type(family).__name__}."
+        )
+    if not isinstance(policy, AdoptionPolicy):
+        raise TypeError(
+            f"diagnose: policy must be an AdoptionPolicy, got {type(policy).__name__}."
+        )
+    if not 0.05 <= holdout_fraction <= 0.5:
+        raise ValueError(
+            f"diagnose: holdout_fraction={holdout_fraction} must be in [0.05, 0.5]."
+        )
+    family.check(recording)
+    device = serial_device(device)
+    with running_on(device):
+        return _diagnose(
+            recording,
+            moved_to(key, device),
+            family=family,
+            base=moved_to(base, device),
+            holdout_fraction=holdout_fraction,
+            policy=policy,
+            swarm=swarm,
+            progress=progress,
+        )
+
+
+def _diagnose(
+    recording: Recording,
+    key: PRNGKeyArray,
+    *,
+    family: AbstractFamily,
+    base: AbstractHysteresisModel | None,
+    holdout_fraction: float,
+    policy: AdoptionPolicy,
+    swarm: MPSO | None,
+    progress: bool,
+) -> Diagnosis:
+    start_time = time.perf_counter()
+    fit_mask = family.holdout(recording, holdout_fraction)
+    if fit_mask.all() or not fit_mask.any():
+        raise ValueError(
+            f"diagnose: recording {recording.name!r} is too short to hold part of it "
+            "out (the family's split left nothing on one side); record more cycles."
+        )
+    measured = jnp.asarray(recording.y)
+    ctx = _Context(
+        recording,
+        family,
+        policy,
+        key,
+        recording.input_path(),
+        measured,
+        np.asarray(recording.y),
+        fit_mask,
+        ~fit_mask,
+        jnp.asarray(fit_mask, measured.dtype),
+        family.solver(recording),
+        recording.sample_rate,
+        recording.duration,
+    )
+    state, base = _base_fit(ctx, base, swarm, progress)
+    base_predicted = state.predicted
+    baseline = error_metrics(ctx.y, base_predicted)
+    location = family.locate(recording, ctx.y - base_predicted)
+    state = _forward(ctx, state)
+    state = _backward(ctx, state)
+    state = _swaps(ctx, state)
+    final_model, final_pred = _final_refit(ctx, state)
+    unexplained: list[Unexplained] = unexplained_structure(
+        recording, family, ctx.y - final_pred, fit_mask, policy
+    )
+    final_residual = ctx.y - final_pred
+    centred = final_residual - final_residual.mean()
+    lag1 = float(
+        np.dot(centred[:-1], centred[1:]) / max(np.dot(centred, centred), 1e-300)
+    )
+    noise = {
+        "sigma": float(np.sqrt(np.mean(final_residual**2))),
+        "lag1_autocorrelation": lag1,
+        "effective_samples": effective_samples(final_residual),
+    }
+    names = [p for p in family.base_free + family.gauge]
+    for finding in state.findings:
+        names += list(family.effect(finding.effect).parameters)
+    final_parameters = {
+        n: float(getattr(final_model, n))
+        for n in final_model.parameter_names
+        if n in names
+    }
+    return Diagnosis(
+        recording.name,
+        recording.num_samples,
+        family.name,
+        family.base_name,
+        base,
+        final_model,
+        baseline,
+        error_metrics(ctx.y, final_pred),
+        list(state.findings),
+        unexplained,
+        list(state.rounds),
+        list(state.ambiguities),
+        noise["sigma"],
+        noise,
+        location,
+        base_predicted,
+        final_pred,
+        ~fit_mask,
+        float(holdout_fraction),
+        final_parameters,
+        time.perf_counter() - start_time,
+    )

@@ -1,0 +1,306 @@
+"""A family: a base model, its catalogue of effects, and how its records are read.
+
+The engine (`diagnose`) knows nothing about piezo stages or structural tests; it
+asks the family for the base fit, the extended model with every effect off, the
+hold-out split, the solver, and where a residual lives.
+"""
+
+import abc
+import math
+from typing import Any, ClassVar
+
+import equinox as eqx
+import numpy as np
+
+from .._models.base import AbstractHysteresisModel
+from .._models.bouc_wen import BoucWen, PiezoBoucWen
+from .._models.extended import ExtendedPiezo
+from .._models.structural import StructuralBoucWen
+from .._params import ParameterSpace
+from .._recording import Recording
+from .._simulate import RK4
+from ._effects.asymmetry import Asymmetry
+from ._effects.base import AbstractEffect
+from ._effects.creep import Creep
+from ._effects.degradation import Degradation
+from ._effects.drift import Drift
+from ._effects.dynamics import Dynamics
+from ._effects.input_bias import InputBias
+from ._effects.pinching import Pinching
+from ._effects.push_pull import PushPullAsymmetry
+from ._effects.rate_dependence import RateDependence
+from ._locate import describe, describe_cycles, locate, locate_cycles
+
+
+class AbstractFamily(eqx.Module):
+    """A base model plus the catalogue of physics it can leave out.
+
+    `catalogue` holds the effect objects in the order they are scored and
+    reported; `name` is the family's stable identifier and `base_name` the base
+    model's name in the `jaxhyst diagnose` JSON.
+    """
+
+    name: ClassVar[str]
+    base_name: ClassVar[str]
+    # The base parameters a refit moves (the gauge parameter stays fixed).
+    base_free: ClassVar[tuple[str, ...]]
+    gauge: ClassVar[tuple[str, ...]]
+    catalogue: eqx.AbstractVar[tuple[AbstractEffect, ...]]
+
+    @property
+    def effect_names(self) -> tuple[str, ...]:
+        return tuple(e.name for e in self.catalogue)
+
+    def effect(self, name: str) -> AbstractEffect:
+        """The catalogue's effect called `name`."""
+        for effect in self.catalogue:
+            if effect.name == name:
+                return effect
+        raise ValueError(
+            f"{type(self).__name__}: no effect {name!r}; the catalogue has "
+            f"{list(self.effect_names)}."
+        )
+
+    def __check_init__(self):
+        names = [e.name for e in self.catalogue]
+        if len(set(names)) != len(names):
+            raise ValueError(f"{type(self).__name__}: effect names repeat: {names}.")
+
+    @abc.abstractmethod
+    def check(self, recording: Recording) -> None:
+        """Raise ValueError if `recording` is the wrong kind for this family."""
+
+    @abc.abstractmethod
+    def base_template(self) -> AbstractHysteresisModel:
+        """The base model class `identify` fits (its values are unused)."""
+
+    def base_space(self, recording: Recording) -> ParameterSpace | None:
+        """The base fit's parameter space; None: `ParameterSpace.default`."""
+        return None
+
+    @abc.abstractmethod
+    def extend(
+        self, base: AbstractHysteresisModel, recording: Recording
+    ) -> AbstractHysteresisModel:
+        """The extended model with every effect off around a fitted base model."""
+
+    @abc.abstractmethod
+    def solver(self, recording: Recording) -> RK4:
+        """The solver of every simulation the diagnosis runs."""
+
+    @abc.abstractmethod
+    def holdout(self, recording: Recording, fraction: float) -> np.ndarray:
+        """The fit mask (True: fitted; False: held out, about `fraction`)."""
+
+    @abc.abstractmethod
+    def locate(self, recording: Recording, residual: np.ndarray) -> dict[str, Any]:
+        """Where `residual` lives on this kind of record."""
+
+    @abc.abstractmethod
+    def describe(self, where: dict[str, Any]) -> str:
+        """`locate`'s result as one sentence."""
+
+    def base_bounds(self, name: str, value: float) -> tuple[float, float] | None:
+        """Refit bounds of a base parameter, or None for the engine's rule."""
+        if name == "n":
+            return (1.0, 4.0)
+        return None
+
+    @abc.abstractmethod
+    def refit_stride(self, model: AbstractHysteresisModel, recording: Recording) -> int:
+        """Every how many samples a refit compares (1: all)."""
+
+
+class PiezoFamily(AbstractFamily):
+    """The quasi-static piezo model (eq. 7-8, `PiezoBoucWen`) and the physics a
+    stage engineer's record can show beyond it: asymmetry, input bias, rate
+    dependence, creep, stage dynamics, drift. Records: time, drive voltage,
+    displacement."""
+
+    catalogue: tuple[AbstractEffect, ...] = (
+        Asymmetry(),
+        InputBias(),
+        RateDependence(),
+        Creep(),
+        Dynamics(),
+        Drift(),
+    )
+    name: ClassVar[str] = "piezo"
+    base_name: ClassVar[str] = "piezo"
+    base_free: ClassVar[tuple[str, ...]] = ("k1", "k2", "beta1", "gamma1", "n")
+    gauge: ClassVar[tuple[str, ...]] = ("A1",)
+
+    def check(self, recording):
+        recording.require_samples(200, what="the piezo diagnosis")
+
+    def base_template(self):
+        return PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5)
+
+    def extend(self, base, recording):
+        return ExtendedPiezo.around(base, recording.input_path())
+
+    def solver(self, recording):
+        # One RK4 step per sample: the quasi-static part is slow on the sample scale
+        # and the stage (when on) is propagated exactly per sample by the model.
+        return RK4()
+
+    def holdout(self, recording, fraction):
+        return holdout_blocks(recording.num_samples, fraction)
+
+    def locate(self, recording, residual):
+        return locate(np.asarray(recording.t), np.asarray(recording.u), residual)
+
+    def describe(self, where):
+        return describe(where)
+
+    def refit_stride(self, model, recording):
+        # Quasi-static fits see turning points, not the sample rate: 250 Hz is
+        # plenty. A resonance needs >= 4 samples per period at its starting frequency.
+        dynamic = bool(getattr(model, "dynamic", False))
+        slowest = 4 * float(model.natural_frequency) if dynamic else 250.0
+        stride = max(1, int(recording.sample_rate // max(250.0, slowest)))
+        return stride if recording.num_samples > 20 * stride else 1
+
+
+class StructuralFamily(AbstractFamily):
+    """The Bouc-Wen restoring force under an imposed displacement (eq. 1-2,
+    `BoucWen` with D = 1, A = 1; extended by `StructuralBoucWen`) and what cyclic
+    tests of columns, walls and connections show beyond it: degradation,
+    pinching, push/pull asymmetry, drift. Records: (pseudo) time, displacement,
+    force; rate independent, so the time axis only orders the samples."""
+
+    catalogue: tuple[AbstractEffect, ...] = (
+        Degradation(),
+        Pinching(),
+        PushPullAsymmetry(),
+        Drift(),
+    )
+    name: ClassVar[str] = "structural"
+    base_name: ClassVar[str] = "bouc-wen"
+    base_free: ClassVar[tuple[str, ...]] = ("k", "alpha", "beta", "gamma", "n")
+    gauge: ClassVar[tuple[str, ...]] = ("A",)
+
+    def check(self, recording):
+        recording.require_samples(100, what="the structural diagnosis")
+        reversals = recording.reversals()
+        if reversals.size < 2:
+            raise ValueError(
+                f"diagnose: recording {recording.name!r} has {reversals.size} "
+                "reversal(s) of its input; the structural family needs a cyclic "
+                "test (at least two reversals: one full cycle). Check that the "
+                "input column is the displacement."
+            )
+
+    def base_template(self):
+        return BoucWen(1.0, 0.5, 1.0, 1.0, 1.0, 1.0, 1.5)
+
+    def base_space(self, recording):
+        # D = 1 and A = 1 fix the gauge (z -> c z leaves the force unchanged
+        # otherwise): z is then a displacement that saturates at zu.
+        sx = float(np.max(np.abs(recording.u)))
+        sy = float(np.max(np.abs(recording.y)))
+        template = self.base_template().replace(D=1.0, A=1.0)
+        bounds = {
+            "k": (1e-2 * sy / sx, 1e3 * sy / sx),
+            "alpha": (-0.2, 1.0),
+            "beta": (-20 / sx, 1e3 / sx),
+            "gamma": (-20 / sx, 1e3 / sx),
+            "n": (1.0, 3.0),
+        }
+        return ParameterSpace(template, bounds, log_scale=["k"])
+
+    def extend(self, base, recording):
+        return StructuralBoucWen.around(
+            base, recording.input_path(), float(np.max(np.abs(recording.y)))
+        )
+
+    def solver(self, recording):
+        # RK4 steps of at most 1 % of the displacement range: a saturating Bouc-Wen
+        # element is stiff in x where |z| nears zu.
+        u = np.asarray(recording.u)
+        largest = float(np.max(np.abs(np.diff(u))))
+        substeps = math.ceil(largest / (0.01 * float(np.ptp(u))))
+        return RK4(substeps=int(min(max(substeps, 1), 8)))
+
+    def holdout(self, recording, fraction):
+        return holdout_cycles(np.asarray(recording.u), recording.reversals(), fraction)
+
+    def locate(self, recording, residual):
+        return locate_cycles(np.asarray(recording.u), np.asarray(recording.y), residual)
+
+    def describe(self, where):
+        return describe_cycles(where)
+
+    def refit_stride(self, model, recording):
+        # A quasi-static test's loss is set by its turning points and the path
+        # between them: a few thousand samples are plenty.
+        return max(1, math.ceil(recording.num_samples / 6000))
+
+
+def holdout_blocks(n: int, fraction: float, blocks: int = 30) -> np.ndarray:
+    """Fit mask that holds out evenly spread blocks (about `fraction` of the samples),
+    so that slow effects are judged by interpolation, not extrapolation. Many short
+    blocks: every kind of excitation in the record (a sweep, a hold, a fast burst)
+    then lands on both sides, so the held-out error measures the physics, not how the
+    base model extrapolates to a segment it never saw."""
+    held = max(1, round(fraction * blocks))
+    chosen = np.round(np.linspace(1, blocks - 1, held)).astype(int)
+    edges = np.linspace(0, n, blocks + 1).astype(int)
+    mask = np.ones(n, bool)
+    for b in chosen:
+        mask[edges[b] : edges[b + 1]] = False
+    return mask
+
+
+def holdout_cycles(x: np.ndarray, reversals: np.ndarray, fraction: float) -> np.ndarray:
+    """Fit mask that holds out whole cycles of a cyclic test, interleaved.
+
+    A cycle is two consecutive excursions between reversals. Consecutive cycles
+    whose peak |x| is within 15 % of each other form an amplitude level. In every
+    level of two or more cycles one is held out (its second, so that a level of
+    three is judged by interpolation): each such level is on both sides of the
+    split. Levels of one cycle (growing or irregular histories) are held out in
+    turn, every k-th (k ~ 1/fraction), never the first cycle or the one that
+    reaches the largest amplitude: held-out cycles are judged by interpolation,
+    not by extrapolation to a larger amplitude than the fit saw.
+    """
+    n = x.size
+    edges = np.concatenate([[0], np.asarray(reversals, int), [n]])
+    edges = np.unique(edges)
+    cycles = [
+        (edges[i], edges[min(i + 2, edges.size - 1)])
+        for i in range(0, edges.size - 1, 2)
+    ]
+    amplitude = [float(np.max(np.abs(x[a:b]))) if b > a else 0.0 for a, b in cycles]
+    levels: list[list[int]] = []
+    for i, amp in enumerate(amplitude):
+        if levels and abs(amp - amplitude[levels[-1][0]]) <= 0.15 * max(
+            amplitude[levels[-1][0]], 1e-300
+        ):
+            levels[-1].append(i)
+        else:
+            levels.append([i])
+    largest = int(np.argmax(amplitude))
+    every = max(2, round(1 / fraction))
+    held: list[int] = []
+    singles = 0
+    for level in levels:
+        if len(level) >= 2:
+            held.append(level[1])
+        else:
+            singles += 1
+            if singles % every == 0:
+                held.append(level[0])
+    mask = np.ones(n, bool)
+    for i in held:
+        if i in (0, largest):
+            continue
+        a, b = cycles[i]
+        mask[a:b] = False
+    return mask
+
+
+CATALOGUE: dict[str, AbstractEffect] = {e.name: e for e in PiezoFamily().catalogue}
+"""The piezo family's effects by name (`PiezoFamily().catalogue`)."""
+EFFECT_NAMES: tuple[str, ...] = tuple(CATALOGUE)
+STRUCTURAL_EFFECT_NAMES: tuple[str, ...] = StructuralFamily().effect_names

@@ -1,0 +1,66 @@
+"""The adoption rules of the diagnosis, in one object."""
+
+import equinox as eqx
+
+from .._swarm import MPSO
+
+
+class AdoptionPolicy(eqx.Module):
+    """When an effect is adopted, and how hard the engine looks.
+
+    - `significance`: the score test's p-value threshold for a candidate to be
+      refitted (lower is stricter).
+    - `min_heldout_gain`: the held-out MSE must drop by this fraction (and by more
+      than its resolution); small gains are spurious effects soaking up what an
+      adopted effect's form does not quite capture. Lower it on long, quiet records
+      to report smaller effects.
+    - `overlap`: canonical correlation of two signatures above which they count as
+      the same mismatch ("cannot tell", "may also be present").
+    - `max_effects`: rounds of forward selection.
+    - `refits_per_round`: how many of the strongest significant candidates are
+      refitted each round (each costs a short swarm plus a polish), plus any whose
+      effect asks to be refitted always.
+    - `refit_swarm`: the short swarm each candidate refit starts with (None: polish
+      from the best starting point only).
+    - `candidate_steps`, `converge_steps`, `final_steps`: Levenberg-Marquardt steps
+      of a candidate's refit, of converging an adopted model, and of the final fit
+      on every sample.
+    """
+
+    significance: float = 1e-6
+    min_heldout_gain: float = 0.05
+    overlap: float = 0.9
+    max_effects: int = 3
+    refits_per_round: int = 3
+    refit_swarm: MPSO | None = MPSO(num_particles=48, num_iterations=100)
+    candidate_steps: int = 20
+    converge_steps: int = 40
+    final_steps: int = 30
+
+    def __check_init__(self):
+        if not 0 < self.significance < 1:
+            raise ValueError(
+                f"AdoptionPolicy(significance={self.significance}): must be in (0, 1), "
+                "e.g. 1e-6."
+            )
+        if not 0 <= self.min_heldout_gain < 1:
+            raise ValueError(
+                f"AdoptionPolicy(min_heldout_gain={self.min_heldout_gain}): must be in "
+                "[0, 1), e.g. 0.05 (5 % of the held-out MSE)."
+            )
+        if not 0 < self.overlap <= 1:
+            raise ValueError(
+                f"AdoptionPolicy(overlap={self.overlap}): must be in (0, 1], e.g. 0.9."
+            )
+        for name in (
+            "max_effects",
+            "refits_per_round",
+            "candidate_steps",
+            "converge_steps",
+            "final_steps",
+        ):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ValueError(
+                    f"AdoptionPolicy({name}={value!r}): must be an integer >= 1."
+                )

@@ -1,0 +1,161 @@
+"""Refits of the extended model over a subset of its parameters: bounds from the
+effects and the record's scales, a short swarm for the basin, then a
+Levenberg-Marquardt polish through the padded active problem that lets fits over
+different free sets share one compilation."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, PRNGKeyArray
+
+from .._identify import (
+    LevenbergMarquardtPolish,
+    Problem,
+    _decimate,
+    _model_at,
+    _problem_rmse,
+    _swarm_objective,
+)
+from .._inputs import InputPath
+from .._models.base import AbstractHysteresisModel
+from .._params import ParameterSpace
+from .._simulate import AbstractSimulationSolver
+from .._swarm import MPSO, run_swarm
+from ._effects.base import RefitScales
+from ._families import AbstractFamily
+
+
+def fitted_names(
+    family: AbstractFamily, model: AbstractHysteresisModel
+) -> tuple[str, ...]:
+    """Every parameter of the extended model a refit may move (all but the gauge)."""
+    return tuple(n for n in model.parameter_names if n not in family.gauge)
+
+
+def refit_space(
+    family: AbstractFamily, model: AbstractHysteresisModel, free, scales: RefitScales
+) -> ParameterSpace:
+    """One space over all fitted parameters around `model`, with all but `free`
+    frozen. Bounds: the effect's own, else the family's, else the current value
+    +- its natural scale, else +- twice its size."""
+    names = fitted_names(family, model)
+    owner = {p: e for e in family.catalogue for p in e.parameters}
+    bounds = {}
+    for name in names:
+        value = float(getattr(model, name))
+        chosen = owner[name].bounds(name, value, scales) if name in owner else None
+        if chosen is None:
+            chosen = family.base_bounds(name, value)
+        if chosen is None and name in scales.natural:
+            chosen = (value - scales.natural[name], value + scales.natural[name])
+        if chosen is None:
+            spread = 2 * abs(value) + 1e-12
+            chosen = (value - spread, value + spread)
+        bounds[name] = chosen
+    log = [p for e in family.catalogue for p in e.log_scaled if p in names]
+    frozen = [n for n in names if n not in free]
+    return ParameterSpace(model, bounds, log_scale=log, frozen=frozen)
+
+
+class RefitSettings(eqx.Module):
+    """The swarm and polish of one refit."""
+
+    max_steps: int
+    swarm: MPSO | None
+    # Every how many samples the refit compares (1: all).
+    stride: int
+
+
+def refit(
+    family: AbstractFamily,
+    model: AbstractHysteresisModel,
+    free,
+    inputs: InputPath,
+    measured: Array,
+    weights: Array,
+    solver: AbstractSimulationSolver,
+    scales: RefitScales,
+    settings: RefitSettings,
+    *,
+    key: PRNGKeyArray | None = None,
+) -> AbstractHysteresisModel:
+    """Levenberg-Marquardt over `free` (the rest frozen) in one fixed space, on a
+    decimated copy when `settings.stride` > 1. With a `key` (and a swarm in the
+    settings, and a model without fast linear parts), a short swarm over the same
+    space first looks for a better basin: a large effect can pull the base
+    parameters far from where the base fit left them."""
+    space = refit_space(family, model, free, scales)
+    problem = Problem(space, inputs, measured, solver, weights)
+    stride = settings.stride
+    if stride > 1:
+        problem = _decimate(problem, stride)
+    z0 = space.from_model(model)
+    if (
+        key is not None
+        and settings.swarm is not None
+        and model.sample_update(inputs) is None
+    ):
+        coarse_stride = max(1, inputs.num_samples // 2000)
+        coarse = _decimate(problem, max(1, coarse_stride // stride))
+        swarm = run_swarm(
+            _swarm_objective,
+            jnp.zeros(space.dimension),
+            jnp.ones(space.dimension),
+            settings.swarm,
+            key,
+            args=coarse,
+            chunk_size=20,
+            stall_iterations=20,
+        )
+        if float(_problem_rmse(problem, swarm.best_x)) < float(
+            _problem_rmse(problem, z0)
+        ):
+            z0 = swarm.best_x
+    # Decimated fits (screening, converging, final) come in many free sets and are
+    # cheap per step: one padded size for all of them. Full-rate ones (a stage
+    # resonance) are expensive per tangent: the tightest size.
+    active = ActiveProblem.build(
+        problem,
+        z0,
+        [space.names.index(n) for n in free],
+        smallest=11 if problem.measured.size < inputs.num_samples else 8,
+    )
+    polish = LevenbergMarquardtPolish(max_steps=settings.max_steps, min_gain=1e-5)
+    # `ActiveProblem` offers the part of `Problem` a polish uses.
+    result = polish.run(active, active.start())  # pyright: ignore[reportArgumentType]
+    return _model_at(space, active.full(result.z))
+
+
+class ActiveProblem(eqx.Module):
+    """A `Problem` seen through its free coordinates only, padded to a few fixed
+    sizes: the Jacobian then costs one tangent per free parameter (not per parameter
+    of the space), and fits over different free sets share a compilation."""
+
+    problem: Problem
+    base: jax.Array
+    index: jax.Array
+
+    @classmethod
+    def build(cls, problem, z0, free_index, smallest=8):
+        # Few distinct sizes, so that fits over different free sets share one
+        # compiled program (each costs seconds to compile; a padded coordinate costs
+        # one tangent per Jacobian).
+        total = problem.space.dimension
+        sizes = [k for k in (8, 11, 14, total) if k >= smallest]
+        size = next(k for k in sizes if k >= len(free_index))
+        padding = [total] * (size - len(free_index))
+        return cls(problem, jnp.asarray(z0), jnp.asarray(list(free_index) + padding))
+
+    def full(self, z):
+        extended = jnp.concatenate([self.base, jnp.zeros(1, self.base.dtype)])
+        return extended.at[self.index].set(z)[:-1]
+
+    def start(self):
+        extended = jnp.concatenate([self.base, jnp.zeros(1, self.base.dtype)])
+        return extended[self.index]
+
+    def residuals(self, z):
+        return self.problem.residuals(self.full(z))
+
+    def rmse(self, z):
+        return self.problem.rmse(self.full(z))

@@ -1,0 +1,196 @@
+"""The typed records a diagnosis produces; `to_dict()` gives the JSON edge."""
+
+from typing import Any
+
+import equinox as eqx
+import numpy as np
+
+from .._models.base import AbstractHysteresisModel
+
+
+class Validation(eqx.Module):
+    """How a refitted candidate did on the held-out and the fitted samples."""
+
+    heldout_rmse_before: float
+    heldout_rmse_after: float
+    fit_rmse_before: float
+    fit_rmse_after: float
+    # The held-out MSE drop it needed (max of the minimum gain and the resolution).
+    heldout_margin_mse: float
+    # The smallest held-out MSE difference the record can tell from noise.
+    heldout_resolution_mse: float
+    effective_samples_heldout: float
+    bic_change: float
+    score_statistic: float
+    score_dof: int
+    log10_p: float
+    accepted: bool
+    # The effect this one replaced when greedy choices were revisited.
+    replaced: str | None = None
+
+    @property
+    def heldout_gain(self) -> float:
+        """Relative drop of the held-out RMSE."""
+        return 1 - self.heldout_rmse_after / self.heldout_rmse_before
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {
+            "heldout_rmse_before": self.heldout_rmse_before,
+            "heldout_rmse_after": self.heldout_rmse_after,
+            "fit_rmse_before": self.fit_rmse_before,
+            "fit_rmse_after": self.fit_rmse_after,
+            "heldout_margin_mse": self.heldout_margin_mse,
+            "heldout_resolution_mse": self.heldout_resolution_mse,
+            "effective_samples_heldout": self.effective_samples_heldout,
+            "bic_change": self.bic_change,
+            "score_statistic": self.score_statistic,
+            "score_dof": self.score_dof,
+            "log10_p": self.log10_p,
+            "accepted": self.accepted,
+        }
+        if self.replaced is not None:
+            out["replaced"] = self.replaced
+        return out
+
+
+class Score(eqx.Module):
+    """One effect scored in one round: the score test on the residual, and what
+    became of it (its validation if refitted, else why not)."""
+
+    effect: str
+    statistic: float
+    dof: int
+    log10_p: float
+    explained_mse: float
+    significant: bool
+    # The Gauss-Newton step along the usable directions, by parameter.
+    step: dict[str, float] = eqx.field(repr=False)
+    # The projected, usable directions (samples x dof).
+    directions: np.ndarray = eqx.field(repr=False)
+    start_mse: float | None = None
+    validation: Validation | None = None
+    rejection: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "effect": self.effect,
+            "statistic": self.statistic,
+            "dof": self.dof,
+            "log10_p": self.log10_p,
+            "explained_mse": self.explained_mse,
+            "significant": self.significant,
+        }
+        if self.start_mse is not None:
+            out["start_mse"] = self.start_mse
+        if self.validation is not None:
+            out["validation"] = self.validation.to_dict()
+        if self.rejection is not None:
+            out["rejected"] = self.rejection
+        return out
+
+
+class Finding(eqx.Module):
+    """One adopted effect, with the evidence for it and what it bought."""
+
+    effect: str
+    evidence: str
+    where: str
+    score: float
+    parameters: dict[str, float]
+    before: dict[str, float]
+    after: dict[str, float]
+    validation: Validation
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "effect": self.effect,
+            "evidence": self.evidence,
+            "where": self.where,
+            "score": self.score,
+            "parameters": self.parameters,
+            "before": self.before,
+            "after": self.after,
+            "validation": self.validation.to_dict(),
+        }
+
+
+class Unexplained(eqx.Module):
+    """A structured mismatch that remains on held-out data and that no effect of
+    the catalogue removed: where it lives, how large, what it resembles."""
+
+    description: str
+    where: str
+    rms: float
+    heldout_gain: float
+    resembles: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "description": self.description,
+            "where": self.where,
+            "rms": self.rms,
+            "heldout_gain": self.heldout_gain,
+            "resembles": self.resembles,
+        }
+
+
+class Diagnosis(eqx.Module):
+    """The result of `diagnose`; `to_dict()` is the `jaxhyst diagnose` JSON."""
+
+    recording: str
+    samples: int
+    family: str
+    base_name: str
+    base_model: AbstractHysteresisModel
+    final_model: AbstractHysteresisModel
+    baseline: dict[str, float]
+    final: dict[str, float]
+    findings: list[Finding]
+    unexplained: list[Unexplained]
+    rounds: list[list[Score]]
+    ambiguities: list[str]
+    noise_sigma: float
+    noise: dict[str, float]
+    location: dict[str, Any]
+    base_predicted: np.ndarray
+    final_predicted: np.ndarray
+    # True on the held-out samples.
+    heldout: np.ndarray
+    holdout_fraction: float
+    final_parameters: dict[str, float]
+    seconds: float
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        return tuple(f.effect for f in self.findings)
+
+    @property
+    def final_rmse(self) -> float:
+        return self.final["rmse"]
+
+    @property
+    def candidates(self) -> list[list[dict[str, Any]]]:
+        """Every round's scored candidates, as in the JSON."""
+        return [[score.to_dict() for score in round_] for round_ in self.rounds]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "recording": self.recording,
+            "samples": self.samples,
+            "model": self.base_name,
+            "noise": self.noise,
+            "baseline": self.baseline,
+            "findings": [f.to_dict() for f in self.findings],
+            "unexplained": [u.to_dict() for u in self.unexplained],
+            "final": {
+                "model": "+".join((self.base_name, *self.effects)),
+                "rmse": self.final["rmse"],
+                "metrics": self.final,
+                "parameters": self.final_parameters,
+            },
+            "ambiguities": self.ambiguities,
+            "location": self.location,
+            "candidates": self.candidates,
+            "holdout_fraction": self.holdout_fraction,
+            "timing": {"total_s": self.seconds},
+        }
