@@ -91,6 +91,11 @@ from ._models.bouc_wen import (
 from ._models.extended import ExtendedPiezo as ExtendedPiezo
 from ._models.oscillator import HystereticOscillator as HystereticOscillator
 from ._models.structural import StructuralBoucWen as StructuralBoucWen
+from ._opensees import (
+    OpenSeesMaterial as OpenSeesMaterial,
+    opensees_force as opensees_force,
+    opensees_material as opensees_material,
+)
 from ._params import ParameterSpace as ParameterSpace
 from ._recording import Recording as Recording, RecordingError as RecordingError
 from ._signals import (

@@ -21,10 +21,16 @@ import jax
 import numpy as np
 
 from ._diagnose._diagnose import diagnose
-from ._diagnose._families import EFFECT_NAMES
+from ._diagnose._families import (
+    EFFECT_NAMES,
+    AbstractFamily,
+    PiezoFamily,
+    StructuralFamily,
+)
 from ._identify import identify
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
+from ._opensees import opensees_json
 from ._params import ParameterSpace
 from ._plots import plot_loop, require_matplotlib
 from ._recording import Recording, RecordingError
@@ -676,7 +682,12 @@ def _run_fit(args: argparse.Namespace) -> int:
     if args.model == "corrected":
         fit, stages = _identify_corrected(recording, key, swarm)
     else:
-        solver = RK4(substeps=4) if args.model == "stage" else RK4()
+        if args.model == "stage":
+            solver = RK4(substeps=4)
+        elif args.model == "bouc-wen":
+            solver = StructuralFamily().solver(recording)
+        else:
+            solver = RK4()
         fit = identify(
             _fit_template(args.model),
             recording,
@@ -712,6 +723,8 @@ def _run_fit(args: argparse.Namespace) -> int:
             "output_unit": recording.output_unit,
         }
         data["command"] = {"model": args.model, "seed": args.seed}
+        if isinstance(fit.model, BoucWen):
+            data.update(opensees_json(fit.model, recording))
         if stages is not None:
             data["stages"] = stages
         _write_json(data, json_path, args.force)
@@ -746,7 +759,11 @@ def _add_diagnose_parser(subparsers) -> None:
         "--model",
         default="piezo",
         metavar="NAME",
-        help="the base model; only 'piezo' (PiezoBoucWen) is supported.",
+        help="the family: 'piezo' (default; PiezoBoucWen with asymmetry, input "
+        "bias, rate dependence, creep, dynamics, drift) or 'bouc-wen' (structural "
+        "cyclic tests, columns t,u,y = pseudo time, displacement, force: BoucWen with "
+        "degradation, pinching, asymmetry, drift; the JSON then carries the matching "
+        "OpenSees material under 'opensees').",
     )
     _add_swarm_options(parser, presets=False)
     parser.add_argument(
@@ -778,18 +795,30 @@ def _add_diagnose_parser(subparsers) -> None:
     parser.set_defaults(run=_run_diagnose)
 
 
-def _run_diagnose(args: argparse.Namespace) -> int:
-    if args.model != "piezo":
+# The one table from --model names to diagnosis families.
+_DIAGNOSE_FAMILIES: dict[str, type[AbstractFamily]] = {
+    "piezo": PiezoFamily,
+    "bouc-wen": StructuralFamily,
+}
+
+
+def _family(name: str) -> AbstractFamily:
+    if name not in _DIAGNOSE_FAMILIES:
         known = (
-            f"{args.model!r} is a model 'jaxhyst fit' can identify"
-            if args.model in _FIT_MODELS
-            else f"unknown model {args.model!r}"
+            f"{name!r} is a model 'jaxhyst fit' can identify, but diagnose has no "
+            "effect catalogue for it"
+            if name in _FIT_MODELS
+            else f"unknown model {name!r}"
         )
         raise ValueError(
-            f"--model {args.model}: {known}, but diagnose only supports the base "
-            "model 'piezo' (the effect catalogue extends PiezoBoucWen); drop --model "
-            "or use --model piezo."
+            f"--model {name}: {known}; use --model piezo (piezo actuators and stages) "
+            "or --model bouc-wen (structural cyclic tests: displacement -> force)."
         )
+    return _DIAGNOSE_FAMILIES[name]()
+
+
+def _run_diagnose(args: argparse.Namespace) -> int:
+    family = _family(args.model)
     swarm = _swarm(args)
     files: list[tuple[str, Path]] = []
     json_path = Path(args.json) if args.json is not None else None
@@ -808,7 +837,11 @@ def _run_diagnose(args: argparse.Namespace) -> int:
     recording = _load_recording(args)
 
     diagnosis = diagnose(
-        recording, key=jax.random.key(args.seed), swarm=swarm, progress=True
+        recording,
+        key=jax.random.key(args.seed),
+        family=family,
+        swarm=swarm,
+        progress=True,
     )
     print(diagnosis_summary(diagnosis, recording))
     if json_path is not None:

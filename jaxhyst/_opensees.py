@@ -149,6 +149,9 @@ def _scalar(model: StructuralBoucWen, name: str) -> float:
             f"opensees_material: {name} has shape {value.shape}; export one model at "
             "a time (index a batched model first)."
         )
+    if value.dtype == np.float32:
+        # The shortest decimal that is this float32: 0.05, not 0.05000000074505806.
+        return float(np.format_float_scientific(np.float32(value), unique=True))
     return float(value)
 
 
@@ -249,7 +252,7 @@ def opensees_material(
         reasons.append(
             "degradation (strength_degradation="
             f"{p['strength_degradation']:.4g}, stiffness_degradation="
-            f"{p['stiffness_degradation']:.4g}): OpenSees BWBN, the only material "
+            f"{p['stiffness_degradation']:.4g}): BWBN, the only OpenSees material "
             "with this pinching, has no strength or stiffness degradation"
         )
     if p["skew"] != 0 or p["stiffness_skew"] != 0:
@@ -444,3 +447,18 @@ def opensees_force(
     finally:
         ops.wipe()
     return force
+
+
+def opensees_json(model, recording) -> dict[str, Any]:
+    """The `opensees` keys of the `jaxhyst fit` / `diagnose` JSON: the Tcl command
+    (None when the model cannot be exported, with the reason) and the material's
+    summary, in the recording's units."""
+    try:
+        material = opensees_material(
+            model,
+            force_unit=recording.output_unit or None,
+            displacement_unit=recording.input_unit or None,
+        )
+    except ValueError as error:  # a fit outside OpenSees's forms (A <= 0, D <= 0)
+        return {"opensees": None, "opensees_note": str(error)}
+    return {"opensees": material.command, "opensees_material": material.to_dict()}

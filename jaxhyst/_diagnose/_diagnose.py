@@ -824,5 +824,6 @@ def _diagnose(
         ~fit_mask,
         float(holdout_fraction),
         final_parameters,
+        family.exports(final_model, recording),
         time.perf_counter() - start_time,
     )

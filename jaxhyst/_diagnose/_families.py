@@ -16,6 +16,7 @@ from .._models.base import AbstractHysteresisModel
 from .._models.bouc_wen import BoucWen, PiezoBoucWen
 from .._models.extended import ExtendedPiezo
 from .._models.structural import StructuralBoucWen
+from .._opensees import opensees_json
 from .._params import ParameterSpace
 from .._recording import Recording
 from .._simulate import RK4
@@ -109,6 +110,13 @@ class AbstractFamily(eqx.Module):
     @abc.abstractmethod
     def refit_stride(self, model: AbstractHysteresisModel, recording: Recording) -> int:
         """Every how many samples a refit compares (1: all)."""
+
+    def exports(
+        self, model: AbstractHysteresisModel, recording: Recording
+    ) -> dict[str, Any]:
+        """Extra keys of the diagnosis JSON that turn the final model into what this
+        family's users run (none by default)."""
+        return {}
 
 
 class PiezoFamily(AbstractFamily):
@@ -230,6 +238,10 @@ class StructuralFamily(AbstractFamily):
 
     def describe(self, where):
         return describe_cycles(where)
+
+    def exports(self, model, recording):
+        # The matching OpenSees uniaxial material (BoucWen, or BWBN when pinched).
+        return opensees_json(model, recording)
 
     def refit_stride(self, model, recording):
         # A quasi-static test's loss is set by its turning points and the path

@@ -158,6 +158,8 @@ class Diagnosis(eqx.Module):
     heldout: np.ndarray
     holdout_fraction: float
     final_parameters: dict[str, float]
+    # Family-specific keys of the JSON (the structural family: `opensees`).
+    exports: dict[str, Any]
     seconds: float
 
     @property
@@ -192,5 +194,6 @@ class Diagnosis(eqx.Module):
             "location": self.location,
             "candidates": self.candidates,
             "holdout_fraction": self.holdout_fraction,
+            **self.exports,
             "timing": {"total_s": self.seconds},
         }

@@ -1,0 +1,542 @@
+"""The structural diagnosis on real quasi-static cyclic tests: every record of
+`jh.STRUCTURAL_TESTS` (RC columns and walls, a CLT rocking wall, a steel-plate
+connection; imposed displacement -> restoring force).
+
+For each record this script
+
+1. runs `jh.diagnose(recording, key=..., family=jh.StructuralFamily())`: a plain
+   Bouc-Wen base fitted on part of the cycles, effects (degradation, pinching,
+   asymmetry, drift) adopted only if they lower the error on held-out whole cycles;
+2. fits the plain Bouc-Wen model with `jh.identify` on the same fitted samples (the
+   family's base template, bounds and solver), as a cross-check of the diagnosis's
+   base;
+3. if `jh.opensees_material` and `jaxhyst._opensees.opensees_force` exist and
+   openseespy loads, exports the final model to its OpenSees material, drives it
+   with the record's displacement and reports the largest difference from
+   jaxhyst's final force, relative to max|F| (effects OpenSees lacks, such as
+   drift and asymmetry, are dropped by the export and show up here).
+
+It prints the machine and versions and a Markdown table: held-out RMS and NRMSD
+(RMS / max|F| of the record) of the base and final models on the held-out cycles,
+the findings in order with their held-out gains, what stayed unexplained, and the
+seconds. `--out DIR` also writes the table (DIR/structural_tests.md) and one
+before/after loop figure per record (DIR/<record>_loops.png: measured, base,
+final force against displacement); `--json PATH` writes everything as JSON.
+Existing outputs are never replaced without `--force`.
+
+    python benchmarks/structural_tests.py --out jaxhyst-out/structural
+    python benchmarks/structural_tests.py --records daniel chiu --particles 32 \\
+        --iterations 50 --json structural.json
+"""
+
+import argparse
+import importlib
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import jax
+
+
+jax.config.update("jax_enable_x64", True)
+
+import numpy as np  # noqa: E402
+
+import jaxhyst as jh  # noqa: E402
+
+
+try:  # re-exported by jaxhyst once the structural loaders land in __init__
+    from jaxhyst import STRUCTURAL_TESTS, load_structural_test  # noqa: E402
+except ImportError:
+    from jaxhyst._datasets import STRUCTURAL_TESTS, load_structural_test  # noqa: E402
+
+
+TABLE = "structural_tests.md"
+PACKAGES = (
+    "jaxhyst",
+    "jax",
+    "jaxlib",
+    "numpy",
+    "equinox",
+    "optimistix",
+    "matplotlib",
+    "openseespy",
+)
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--data-dir",
+        default=None,
+        help="data directory holding the structural_* folders (default: "
+        "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data)",
+    )
+    parser.add_argument(
+        "--records",
+        nargs="+",
+        choices=STRUCTURAL_TESTS,
+        default=list(STRUCTURAL_TESTS),
+        metavar="NAME",
+        help=f"the records to run (default: all of {', '.join(STRUCTURAL_TESTS)})",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument(
+        "--particles",
+        type=int,
+        default=None,
+        help="swarm size of the fits and the diagnosis (default: the library's)",
+    )
+    parser.add_argument(
+        "--iterations",
+        type=int,
+        default=None,
+        help="swarm iterations of the fits and the diagnosis (default: the library's)",
+    )
+    parser.add_argument(
+        "--no-opensees", action="store_true", help="skip the OpenSees comparison"
+    )
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        default=None,
+        help="write the Markdown table and the loop figures into DIR (created if "
+        "missing)",
+    )
+    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
+    parser.add_argument("--force", action="store_true", help="replace existing outputs")
+    args = parser.parse_args(argv)
+    for option in ("particles", "iterations"):
+        value = getattr(args, option)
+        if value is not None and value < (2 if option == "particles" else 1):
+            parser.error(f"--{option} {value} is too small")
+    return args
+
+
+def log(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+# -------------------------------------------------------------- machine, inputs
+
+
+def cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo") as file:
+            for line in file:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def machine() -> dict:
+    versions = {}
+    for package in PACKAGES:
+        try:
+            versions[package] = importlib.metadata.version(package)
+        except importlib.metadata.PackageNotFoundError:
+            versions[package] = "not installed"
+    if versions["jaxhyst"] == "not installed":
+        versions["jaxhyst"] = jh.__version__
+    return {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "processor": cpu_name(),
+        "cpu_count": os.cpu_count(),
+        "devices": [str(d) for d in jax.devices()],
+        "versions": versions,
+    }
+
+
+def structural_api():
+    """`(diagnose, StructuralFamily)`, or exit saying what is missing."""
+    family = getattr(jh, "StructuralFamily", None)
+    if family is None:
+        raise SystemExit(
+            "structural_tests: this jaxhyst has no jh.StructuralFamily (the "
+            "structural diagnosis); update jaxhyst, or run it from a source tree "
+            "that has jaxhyst/_diagnose with the structural family."
+        )
+    return jh.diagnose, family
+
+
+def opensees_api():
+    """`(opensees_material, opensees_force)`, or a string saying why not."""
+    material = getattr(jh, "opensees_material", None)
+    try:
+        module = importlib.import_module("jaxhyst._opensees")
+    except ImportError as error:
+        return f"jaxhyst._opensees is missing ({error})"
+    if material is None:
+        material = getattr(module, "opensees_material", None)
+    force = getattr(module, "opensees_force", None)
+    if material is None or force is None:
+        return "this jaxhyst has no opensees_material / opensees_force"
+    return material, force
+
+
+def output_paths(args) -> list[Path]:
+    """Every file this run writes; refuses existing ones unless --force."""
+    paths = []
+    if args.json is not None:
+        paths.append(Path(args.json))
+    if args.out is not None:
+        out = Path(args.out)
+        if out.exists() and not out.is_dir():
+            raise SystemExit(f"structural_tests: --out {str(out)!r} is a file.")
+        paths.append(out / TABLE)
+        paths += [out / f"{name}_loops.png" for name in args.records]
+    existing = [str(path) for path in paths if path.exists()]
+    if existing and not args.force:
+        raise SystemExit(
+            f"structural_tests: {', '.join(existing)} already exist(s); pass --force "
+            "to replace them, or pick another --out / --json."
+        )
+    return paths
+
+
+# ----------------------------------------------------------------- one record
+
+
+def heldout_rms(y: np.ndarray, predicted: np.ndarray, mask: np.ndarray) -> float:
+    residual = np.asarray(predicted, dtype=np.float64) - y
+    return float(np.sqrt(np.mean(residual[mask] ** 2)))
+
+
+def plain_fit(recording, family, mask, key, swarm_kwargs) -> dict:
+    """The plain Bouc-Wen base by `jh.identify`, on the diagnosis's fitted samples."""
+    start = time.perf_counter()
+    fit = jh.identify(
+        family.base_template(),
+        recording,
+        key=key,
+        space=family.base_space(recording),
+        solver=family.solver(recording),
+        weights=jax.numpy.asarray((~mask).astype(np.float64)),
+        **swarm_kwargs,
+    )
+    predicted = np.asarray(fit.predicted)
+    return {
+        "model": type(fit.model).__name__,
+        "parameters": {k: float(v) for k, v in fit.model.parameters().items()},
+        "predicted": predicted,
+        "heldout_rms": heldout_rms(recording.y, predicted, mask),
+        "seconds": time.perf_counter() - start,
+    }
+
+
+def opensees_check(api, diagnosis, recording) -> dict:
+    """The final model's OpenSees material under the record's displacement."""
+    if isinstance(api, str):
+        return {"skipped": api}
+    opensees_material, opensees_force = api
+    try:
+        material = opensees_material(diagnosis.final_model)
+    except (TypeError, ValueError) as error:
+        return {"skipped": f"no OpenSees material for the final model ({error})"}
+    # About 2 million strain increments in all: fine where samples are few.
+    substeps = int(min(200, max(10, 2_000_000 // recording.num_samples)))
+    start = time.perf_counter()
+    try:
+        force = opensees_force(material, recording.u, substeps)
+    except ImportError as error:
+        return {"skipped": f"openseespy cannot load ({error})"}
+    final = np.asarray(diagnosis.final_predicted, dtype=np.float64)
+    scale = float(np.max(np.abs(recording.y)))
+    return {
+        "material": material.material,
+        "command": material.command,
+        "exact": bool(material.exact),
+        "dropped": list(material.dropped),
+        "substeps": substeps,
+        "max_mismatch": float(np.max(np.abs(force - final))),
+        "max_mismatch_relative": float(np.max(np.abs(force - final)) / scale),
+        "seconds": time.perf_counter() - start,
+    }
+
+
+def run_record(name, args, api, opensees, key) -> dict:
+    diagnose, family_class = api
+    recording = load_structural_test(name, data_dir=args.data_dir)
+    y = recording.y
+    scale = float(np.max(np.abs(y)))
+    reversals = recording.reversals()
+    log(
+        f"{name}: {recording.num_samples} points, {reversals.size} reversals; "
+        "diagnosing"
+    )
+    swarm_kwargs = {}
+    if args.particles is not None or args.iterations is not None:
+        sizes = {"num_particles": 100, "num_iterations": 200}
+        if args.particles is not None:
+            sizes["num_particles"] = args.particles
+        if args.iterations is not None:
+            sizes["num_iterations"] = args.iterations
+        swarm_kwargs["swarm"] = jh.MPSO(**sizes)
+    family = family_class()
+    start = time.perf_counter()
+    diagnosis = diagnose(
+        recording, key=jax.random.fold_in(key, 0), family=family, **swarm_kwargs
+    )
+    wall = time.perf_counter() - start
+    mask = np.asarray(diagnosis.heldout, dtype=bool)
+    base = np.asarray(diagnosis.base_predicted, dtype=np.float64)
+    final = np.asarray(diagnosis.final_predicted, dtype=np.float64)
+    base_rms = heldout_rms(y, base, mask)
+    final_rms = heldout_rms(y, final, mask)
+    findings = []
+    for finding in diagnosis.findings:
+        v = finding.validation
+        before, after = float(v.heldout_rmse_before), float(v.heldout_rmse_after)
+        findings.append(
+            {
+                "effect": finding.effect,
+                "evidence": finding.evidence,
+                "heldout_rmse_before": before,
+                "heldout_rmse_after": after,
+                "heldout_gain_percent": 100 * (1 - after / before),
+            }
+        )
+    log(f"{name}: plain Bouc-Wen fit on the same fitted samples")
+    plain = plain_fit(recording, family, mask, jax.random.fold_in(key, 1), swarm_kwargs)
+    check = {"skipped": "--no-opensees"}
+    if not args.no_opensees:
+        log(f"{name}: OpenSees comparison")
+        check = opensees_check(opensees, diagnosis, recording)
+    return {
+        "record": name,
+        "recording": recording,
+        "points": recording.num_samples,
+        "reversals": int(reversals.size),
+        "units": {"input": recording.input_unit, "output": recording.output_unit},
+        "max_abs_force": scale,
+        "heldout_points": int(mask.sum()),
+        "base": {"heldout_rms": base_rms, "heldout_nrmsd": base_rms / scale},
+        "findings": findings,
+        "final": {
+            "model": type(diagnosis.final_model).__name__,
+            "heldout_rms": final_rms,
+            "heldout_nrmsd": final_rms / scale,
+        },
+        "unexplained": [u.description for u in diagnosis.unexplained],
+        "ambiguities": list(diagnosis.ambiguities),
+        "plain_fit": {
+            "model": plain["model"],
+            "parameters": plain["parameters"],
+            "heldout_rms": plain["heldout_rms"],
+            "heldout_nrmsd": plain["heldout_rms"] / scale,
+            "seconds": plain["seconds"],
+        },
+        "opensees": check,
+        "seconds": float(diagnosis.seconds),
+        "wall_seconds": wall,
+        "arrays": {"base": base, "final": final, "plain": plain["predicted"]},
+        "heldout": mask,
+    }
+
+
+# -------------------------------------------------------------------- outputs
+
+
+def loop_figure(path: Path, result: dict) -> None:
+    from matplotlib.figure import Figure
+
+    recording = result["recording"]
+    u, y = recording.u, recording.y
+    xunit = f" [{recording.input_unit}]" if recording.input_unit else ""
+    yunit = f" [{recording.output_unit}]" if recording.output_unit else ""
+    figure = Figure(figsize=(11, 4.8), layout="constrained")
+    axes = figure.subplots(1, 2, sharex=True, sharey=True)
+    panels = (
+        ("base", "plain Bouc-Wen (base)", result["base"], "C0"),
+        ("final", f"final: {result['final']['model']}", result["final"], "C3"),
+    )
+    effects = ", ".join(f["effect"] for f in result["findings"]) or "no findings"
+    for ax, (key, label, summary, color) in zip(axes, panels, strict=True):
+        ax.plot(u, y, color="0.6", lw=0.8, label="measured")
+        ax.plot(u, result["arrays"][key], color=color, lw=0.8, label=label)
+        ax.set_xlabel(f"displacement{xunit}")
+        ax.set_title(
+            f"{label}: held-out NRMSD {100 * summary['heldout_nrmsd']:.2f} %",
+            fontsize=10,
+        )
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", fontsize=8)
+    axes[0].set_ylabel(f"force{yunit}")
+    figure.suptitle(
+        f"{result['record']}: {result['points']} points, {effects}", fontsize=11
+    )
+    figure.savefig(path, dpi=110)
+
+
+def cell(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def markdown(results: list[dict], info: dict) -> str:
+    versions = ", ".join(f"{k} {v}" for k, v in info["versions"].items())
+    lines = [
+        "# Structural diagnosis on real cyclic tests",
+        "",
+        f"Machine: {info['processor']} ({info['cpu_count']} CPUs), "
+        f"{', '.join(info['devices'])}; Python {info['python']}; {versions}.",
+        "",
+        "RMS and NRMSD (RMS / max|F|) on the held-out cycles; gains are the drop of "
+        "the held-out RMS when the effect was adopted; plain BW: `jh.identify` of "
+        "the base model on the same fitted samples; OpenSees: max |F_OpenSees - "
+        "F_final| / max|F|.",
+        "",
+        "| record | points | reversals | base RMS | base NRMSD | findings (held-out "
+        "gain) | final RMS | final NRMSD | unexplained | plain BW NRMSD | OpenSees "
+        "| seconds |",
+        "|---|---:|---:|---:|---:|---|---:|---:|---|---:|---|---:|",
+    ]
+    for r in results:
+        if "error" in r:
+            lines.append(
+                f"| {r['record']} | | | | | failed: {cell(r['error'])} | | | | | | |"
+            )
+            continue
+        unit = f" {r['units']['output']}" if r["units"]["output"] else ""
+        findings = ", ".join(
+            f"{f['effect']} ({f['heldout_gain_percent']:+.1f} %)" for f in r["findings"]
+        )
+        check = r["opensees"]
+        if "skipped" in check:
+            opensees = f"skipped: {check['skipped']}"
+        else:
+            dropped = (
+                f", dropped {', '.join(check['dropped'])}" if check["dropped"] else ""
+            )
+            opensees = (
+                f"{check['material']}: {100 * check['max_mismatch_relative']:.2g} %"
+                f"{dropped}"
+            )
+        lines.append(
+            "| "
+            + " | ".join(
+                [
+                    r["record"],
+                    str(r["points"]),
+                    str(r["reversals"]),
+                    f"{r['base']['heldout_rms']:.4g}{unit}",
+                    f"{100 * r['base']['heldout_nrmsd']:.2f} %",
+                    cell(findings or "none"),
+                    f"{r['final']['heldout_rms']:.4g}{unit}",
+                    f"{100 * r['final']['heldout_nrmsd']:.2f} %",
+                    cell("; ".join(r["unexplained"]) or "none"),
+                    f"{100 * r['plain_fit']['heldout_nrmsd']:.2f} %",
+                    cell(opensees),
+                    f"{r['seconds']:.0f}",
+                ]
+            )
+            + " |"
+        )
+    notes = [
+        f"- {r['record']}: {cell(a)}" for r in results for a in r.get("ambiguities", [])
+    ]
+    if notes:
+        lines += ["", "Ambiguities:", "", *notes]
+    return "\n".join(lines) + "\n"
+
+
+def json_ready(results: list[dict], info: dict, args) -> dict:
+    drop = ("recording", "arrays", "heldout")
+    return {
+        "machine": info,
+        "settings": {
+            "seed": args.seed,
+            "particles": args.particles,
+            "iterations": args.iterations,
+        },
+        "records": [{k: v for k, v in r.items() if k not in drop} for r in results],
+    }
+
+
+def finite_json(value):
+    """NaN/inf -> None, so the JSON is standard."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: finite_json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite_json(v) for v in value]
+    return value
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    api = structural_api()
+    output_paths(args)
+    if args.out is not None:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise SystemExit(
+                "structural_tests: --out needs matplotlib (pip install matplotlib)."
+            ) from None
+    if args.data_dir is None:
+        args.data_dir = jh.default_data_dir()
+    opensees = "--no-opensees" if args.no_opensees else opensees_api()
+    if isinstance(opensees, str) and not args.no_opensees:
+        log(f"OpenSees comparison skipped: {opensees}")
+
+    info = machine()
+    print(
+        f"machine: {info['processor']} ({info['cpu_count']} CPUs), devices "
+        f"{', '.join(info['devices'])}, Python {info['python']}, {info['platform']}"
+    )
+    print("versions: " + ", ".join(f"{k} {v}" for k, v in info["versions"].items()))
+    print(f"data: {args.data_dir}")
+
+    key = jax.random.key(args.seed)
+    results, failed, written = [], False, []
+    for index, name in enumerate(args.records):
+        try:
+            result = run_record(
+                name, args, api, opensees, jax.random.fold_in(key, index)
+            )
+        except FileNotFoundError as error:
+            raise SystemExit(f"structural_tests: {error}") from None
+        except Exception as error:  # report it in the table and go on
+            traceback.print_exc()
+            failed = True
+            result = {"record": name, "error": f"{type(error).__name__}: {error}"}
+        results.append(result)
+        if args.out is not None and "error" not in result:
+            out = Path(args.out)
+            out.mkdir(parents=True, exist_ok=True)
+            loop_figure(out / f"{name}_loops.png", result)
+            written.append(out / f"{name}_loops.png")
+
+    table = markdown(results, info)
+    print()
+    print(table)
+    if args.out is not None:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        (Path(args.out) / TABLE).write_text(table)
+        written.append(Path(args.out) / TABLE)
+    if args.json is not None:
+        path = Path(args.json)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        data = finite_json(json_ready(results, info, args))
+        path.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n")
+        written.append(path)
+    for path in written:
+        print(f"wrote {path}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
