@@ -72,7 +72,7 @@ PACKAGES = (
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(
-        description=__doc__.split("\n\n")[0],
+        description=(__doc__ or "").split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
@@ -399,7 +399,7 @@ def markdown(results: list[dict], info: dict) -> str:
         "",
         "| record | points | reversals | base RMS | base NRMSD | findings (held-out "
         "gain) | final RMS | final NRMSD | unexplained | plain BW NRMSD | OpenSees "
-        "| seconds |",
+        "| diagnosis s |",
         "|---|---:|---:|---:|---:|---|---:|---:|---|---:|---|---:|",
     ]
     for r in results:

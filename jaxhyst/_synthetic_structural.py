@@ -91,10 +91,6 @@ _POINTS = (500, 20000)  # the accepted range of `points`
 _REACHED = 0.98  # a form that reaches less than this share of the target gives way
 
 
-def _coefficient(default: float = 0.0):
-    return eqx.field(converter=as_parameter, default=default)
-
-
 # ------------------------------------------------------------------ truth forms
 
 
@@ -104,8 +100,8 @@ class DuctilityDegradation(eqx.Module):
     1 + strength*excess and its elastic slope by (1 + excess)^stiffness. Both only
     fall when the test reaches a new peak. Zero coefficients are off."""
 
-    strength: Float[Array, ""] = _coefficient()
-    stiffness: Float[Array, ""] = _coefficient()
+    strength: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    stiffness: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
 
     def __check_init__(self):
         _check("DuctilityDegradation", "strength", self.strength, "non-negative")
@@ -124,8 +120,8 @@ class EnergyDegradation(eqx.Module):
     multiplied by exp(-yield_rate*e), and the whole hysteretic force by
     exp(-damage_rate*e) (continuum damage). Zero rates are off."""
 
-    yield_rate: Float[Array, ""] = _coefficient()
-    damage_rate: Float[Array, ""] = _coefficient()
+    yield_rate: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    damage_rate: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
 
     def __check_init__(self):
         _check("EnergyDegradation", "yield_rate", self.yield_rate, "non-negative")
@@ -148,9 +144,9 @@ class SlipGap(eqx.Module):
     excursion; `room` falls from 1 to 0 over the last quarter of the gap ahead.
     `growth = 0` is off (the gap stays shut)."""
 
-    growth: Float[Array, ""] = _coefficient()
-    share: Float[Array, ""] = _coefficient(0.9)
-    window: Float[Array, ""] = _coefficient(0.2)
+    growth: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    share: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.9)
+    window: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.2)
 
     def __check_init__(self):
         _check("SlipGap", "growth", self.growth, "non-negative")
@@ -173,10 +169,10 @@ class DuctilityPinching(eqx.Module):
 
     `depth = 0` is off."""
 
-    depth: Float[Array, ""] = _coefficient()
-    rate: Float[Array, ""] = _coefficient(1.0)
-    width: Float[Array, ""] = _coefficient(0.25)
-    shift: Float[Array, ""] = _coefficient(0.1)
+    depth: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    rate: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
+    width: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.25)
+    shift: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.1)
 
     def __check_init__(self):
         _check(
@@ -193,7 +189,7 @@ class SideYield(eqx.Module):
     """asymmetry: the yield level differs in push and pull, zu -> zu*(1 +
     split*sign(z)). `split = 0` is off; |split| < 1."""
 
-    split: Float[Array, ""] = _coefficient()
+    split: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
 
     def level(self, z, smoothing: AbstractSmoothing):
         return 1 + self.split * smoothing.sign(z)
@@ -207,9 +203,9 @@ class OneSidedHardening(eqx.Module):
     so the post-yield stiffness differs in push (direction = +1) and pull (-1).
     `stiffness = 0` is off."""
 
-    stiffness: Float[Array, ""] = _coefficient()
-    onset: Float[Array, ""] = _coefficient(1.0)
-    direction: Float[Array, ""] = _coefficient(1.0)
+    stiffness: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    onset: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
+    direction: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
 
     def __check_init__(self):
         _check("OneSidedHardening", "onset", self.onset, "positive", "pass mm.")
@@ -230,11 +226,11 @@ class LoadCellDrift(eqx.Module):
 
     `scale = 0` is off."""
 
-    scale: Float[Array, ""] = _coefficient()
-    offset: Float[Array, ""] = _coefficient()
-    trend: Float[Array, ""] = _coefficient()
+    scale: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    offset: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
+    trend: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     wander: Float[Array, " m"] = eqx.field(converter=as_parameter, default=(0.0, 0.0))
-    duration: Float[Array, ""] = _coefficient(1.0)
+    duration: Float[Array, ""] = eqx.field(converter=as_parameter, default=1.0)
 
     def __check_init__(self):
         _check("LoadCellDrift", "duration", self.duration, "positive")
@@ -574,14 +570,12 @@ _Sized = tuple[str, eqx.Module, float, str, str]
 def _first_reaching(target: float, forms: list[Callable[[], _Sized]]) -> _Sized:
     """The first form that reaches the target size, else the one that came closest
     (a form is capped where its physics would turn unrealistic)."""
-    best = None
-    for form in forms:
+    best = forms[0]()
+    for form in forms[1:]:
+        if best[2] >= _REACHED * target:
+            break
         sized = form()
-        if sized[2] >= _REACHED * target:
-            return sized
-        if best is None or sized[2] > best[2]:
-            best = sized
-    assert best is not None
+        best = sized if sized[2] > best[2] else best
     return best
 
 
@@ -753,8 +747,8 @@ def _noise(
     drive[0] = white[0]  # start in the stationary distribution
     import scipy.signal  # deferred: heavy import, needed only here
 
-    noise = sigma * scipy.signal.lfilter([1.0], [1.0, -rho], drive)
-    return noise, f"coloured AR(1), coefficient {rho:.3g}"
+    ar = np.asarray(scipy.signal.lfilter([1.0], [1.0, -rho], drive))
+    return sigma * ar, f"coloured AR(1), coefficient {rho:.3g}"
 
 
 # ------------------------------------------------------------------ the cases

@@ -151,3 +151,20 @@ def test_creep_evidence_without_holds_reads_as_words_not_nan():
     where["after_hold"]["relative"] = float("nan")  # as `locate` gives without holds
     text = jh.Creep().evidence(where, None)
     assert "nan" not in text and "no holds" in text
+
+
+def test_a_large_concealed_effect_is_named_on_a_short_record():
+    # The fast suite's positive check: a diagnosis that never names anything fails.
+    case = _case(("drift",), seed=4, duration=6.0, rate=250.0, size=20.0)
+    diagnosis = jh.diagnose(
+        case.recording,
+        key=jax.random.key(0),
+        swarm=jh.MPSO(num_particles=48, num_iterations=60),
+    )
+    assert diagnosis.effects == ("drift",)
+    assert diagnosis.final_rmse < 1.3 * case.sigma
+    finding = diagnosis.findings[0]
+    assert finding.validation.accepted and finding.validation.heldout_gain > 0.5
+    report = diagnosis.to_dict()
+    assert report["final"]["model"] == "piezo+drift"
+    assert report["unexplained"] == []
