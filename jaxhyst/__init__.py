@@ -13,10 +13,12 @@ from ._benchmark_fit import (
     periodic_problem as periodic_problem,
 )
 from ._datasets import (
+    STRUCTURAL_TESTS as STRUCTURAL_TESTS,
     BoucWenBenchmark as BoucWenBenchmark,
     default_data_dir as default_data_dir,
     load_bouc_wen_benchmark as load_bouc_wen_benchmark,
     load_piezo_actuator as load_piezo_actuator,
+    load_structural_test as load_structural_test,
 )
 from ._diagnose._diagnose import diagnose as diagnose
 from ._diagnose._effects.asymmetry import Asymmetry as Asymmetry
@@ -144,6 +146,13 @@ from ._synthetic import (
     concealed_recording as concealed_recording,
     demo_recording as demo_recording,
     rich_excitation as rich_excitation,
+)
+from ._synthetic_structural import (
+    StructuralCase as StructuralCase,
+    StructuralTruth as StructuralTruth,
+    loading_protocol as loading_protocol,
+    structural_base_truth as structural_base_truth,
+    structural_recording as structural_recording,
 )
 
 

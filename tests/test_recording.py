@@ -419,3 +419,63 @@ def test_load_name(tmp_path, suffix):
     _recording().save(path)
     assert Recording.load(path).name == ("file" if suffix == ".csv" else "rec")
     assert Recording.load(path, name="other").name == "other"
+
+
+def _triangle(peaks, per_leg=20):
+    points = [0.0, *peaks]
+    legs = [np.linspace(a, b, per_leg + 1)[1:] for a, b in zip(points[:-1], points[1:])]
+    return np.concatenate([[0.0], *legs])
+
+
+def test_quasi_static_pseudo_time_and_errors():
+    x = _triangle([1, -1, 2, -2])
+    r = jh.Recording.quasi_static(x, 3 * x, name="q", input_unit="mm", output_unit="kN")
+    np.testing.assert_array_equal(r.t, np.arange(x.size))
+    assert (r.time_unit, r.input_name, r.output_name) == (
+        "sample",
+        "displacement",
+        "force",
+    )
+    assert jh.Recording.quasi_static(x, x, pseudo_dt=0.02).dt == pytest.approx(0.02)
+    with pytest.raises(
+        jh.RecordingError, match="displacement has 81 samples but force has 80"
+    ):
+        jh.Recording.quasi_static(x, x[:-1])
+    with pytest.raises(jh.RecordingError, match="pseudo_dt must be positive"):
+        jh.Recording.quasi_static(x, x, pseudo_dt=-1)
+
+
+def test_reversals_exact_and_robust_to_noise():
+    x = _triangle([1, -1, 2, -2, 3])
+    r = jh.Recording.quasi_static(x, x)
+    np.testing.assert_array_equal(r.reversals(), [20, 40, 60, 80])
+    noisy = x + 0.01 * np.random.default_rng(0).standard_normal(x.size)
+    found = jh.Recording.quasi_static(noisy, x).reversals()
+    assert found.size == 4 and np.all(np.abs(found - [20, 40, 60, 80]) <= 2)
+    rough = x + 0.05 * np.random.default_rng(1).standard_normal(x.size)
+    assert jh.Recording.quasi_static(rough, x).reversals(tolerance=0).size > 4
+    with pytest.raises(jh.RecordingError, match=r"tolerance must lie in \[0, 1\)"):
+        r.reversals(tolerance=1.5)
+
+
+def test_load_without_time(tmp_path):
+    path = tmp_path / "two.txt"
+    path.write_text("0 0\n1 2\n2 3\n1 1\n")
+    r = jh.Recording.load(path, time=None)
+    np.testing.assert_array_equal(r.u, [0, 1, 2, 1])
+    np.testing.assert_array_equal(r.t, [0, 1, 2, 3])
+    named = tmp_path / "named.csv"
+    named.write_text("d [mm],F [kN]\n0,0\n1,2\n2,3\n")
+    r = jh.Recording.load(named, time=None, header=True, input="d", output="F")
+    assert (r.input_unit, r.output_unit) == ("mm", "kN")
+    for content, message in (
+        ("0 0\n1 2\n2\n", "different lengths"),
+        ("0 0 0\n1 2 1\n", "has 3 columns"),
+        ("0\n1\n", "has one column"),
+    ):
+        path.write_text(content)
+        with pytest.raises(jh.RecordingError, match=message):
+            jh.Recording.load(path, time=None)
+    (tmp_path / "x.npz").write_bytes(b"")
+    with pytest.raises(jh.RecordingError, match="two-column .csv/.txt"):
+        jh.Recording.load(tmp_path / "x.npz", time=None)

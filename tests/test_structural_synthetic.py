@@ -137,14 +137,17 @@ def test_both_forms_are_reachable(effect):
 def test_pinching_forms_pinch_the_loop():
     """Near zero force the pinched record is softer: with nearly uniform
     displacement steps, more samples lie in a band around zero force."""
+    forms = set()
     for seed in (0, 2):  # a slip gap, a Baber-Noori slip-lock
         case = _case(("pinching",), seed=seed, size_sigmas=12.0)
+        forms.add(case.forms["pinching"])
         x = case.recording.u
         pinched, base = case.noiseless, _simulate(case.base, case)
         late = np.arange(x.size) > x.size // 2
         band = 0.1 * np.max(np.abs(base))
         inside = [np.sum(late & (np.abs(f) < band)) for f in (pinched, base)]
         assert inside[0] > 1.3 * inside[1]
+    assert forms == set(FORMS["pinching"])
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -134,7 +134,9 @@ def locate_cycles(
     Categories: push (x > 0) / pull (x < 0); loading (|x| growing) / unloading;
     near zero force (|F| < 15 % of its peak, where pinching shows) and reloading
     through it; near the peaks of each excursion (|x| > 70 % of the largest |x| so
-    far); the first / last third of the test. Also the slow trend (a moving average
+    far); the first / last third of the test. Also the residual's part that is even
+    in x (the same in push and pull at equal |x|: a symmetric Bouc-Wen force cannot
+    produce it), the slow trend (a moving average
     over 1/25 of the record), the dissipated energy in units of max|F| * max|x|
     and, at the peaks of the last third, the mean of residual * sign(F) (negative:
     the model's force is too large there, as when strength degrades).
@@ -152,6 +154,18 @@ def locate_cycles(
     energy = float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(x)))
     scale = max(float(np.max(np.abs(force)) * np.max(np.abs(x))), 1e-300)
     late_peaks = peaks & (third == 2)
+    # A Bouc-Wen force is odd: F(-x history) = -F(x history). What push and pull do
+    # not share is the residual's even part: bin it by |x| (and loading or not) and
+    # average the two sides' means.
+    levels = np.searchsorted(
+        np.quantile(np.abs(x), np.linspace(0, 1, 11)[1:-1]), np.abs(x)
+    ) * 2 + loading.astype(int)
+    even = np.zeros_like(residual)
+    for label in np.unique(levels):
+        push_bin, pull_bin = (levels == label) & (x > 0), (levels == label) & (x < 0)
+        if push_bin.any() and pull_bin.any():
+            middle = 0.5 * (residual[push_bin].mean() + residual[pull_bin].mean())
+            even[push_bin | pull_bin] = middle
 
     def category(mask):
         return {
@@ -177,6 +191,7 @@ def locate_cycles(
             if late_peaks.any()
             else float("nan")
         ),
+        "even_part_rms": _rms(even),
         "slow_trend_rms": _rms(trend),
         "dissipated_energy": energy / scale,
         "effective_samples": effective_samples(residual),

@@ -1,0 +1,111 @@
+"""The structural family: effects off at zero, the cycle hold-out, errors, and a
+quick positive and a quick clean diagnosis."""
+
+import jax
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+
+
+def _protocol(levels=(1, 2, 3, 4, 6, 8), cycles=2, per_cycle=80):
+    legs = []
+    for amplitude in levels:
+        s = np.linspace(0, 2 * np.pi * cycles, per_cycle * cycles, endpoint=False)
+        legs.append(amplitude * np.sin(s))
+    return np.concatenate([*legs, np.zeros(1)])
+
+
+def _truth(x):
+    base = jh.StructuralBoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 1.5)
+    path = jh.Recording.quasi_static(x, x).input_path()
+    return jh.StructuralBoucWen.around(base, path, 20.0)
+
+
+def _record(x, model, sigma_fraction=0.01, seed=0):
+    path = jh.Recording.quasi_static(x, x).input_path()
+    force = np.asarray(jh.simulate(model, path, jh.RK4(substeps=4)))
+    sigma = sigma_fraction * np.max(np.abs(force))
+    noisy = force + sigma * np.random.default_rng(seed).standard_normal(x.size)
+    return jh.Recording.quasi_static(x, noisy, name="synthetic"), sigma
+
+
+def test_every_effect_off_is_the_plain_bouc_wen_force():
+    x = _protocol()
+    path = jh.Recording.quasi_static(x, x).input_path()
+    plain = jh.BoucWen(2.0, 0.1, 1.5, 0.8, 0.5, 0.3, 1.7)
+    extended = jh.StructuralBoucWen.around(plain, path, 5.0)
+    solver = jh.RK4(substeps=4)
+    np.testing.assert_allclose(
+        jh.simulate(extended, path, solver),
+        jh.simulate(plain, path, solver),
+        rtol=0,
+        atol=1e-12,
+    )
+    family = jh.StructuralFamily()
+    switched_on = extended.replace(
+        strength_degradation=0.2, pinch=0.5, skew=0.1, offset=0.3
+    )
+    for effect in family.catalogue:
+        assert effect.is_on(switched_on)
+        off = effect.switch_off(switched_on)
+        assert not effect.is_on(off)
+        back = effect.take_from(off, switched_on)
+        np.testing.assert_allclose(
+            jh.simulate(back, path, solver), jh.simulate(switched_on, path, solver)
+        )
+    assert jh.STRUCTURAL_EFFECT_NAMES == (
+        "degradation",
+        "pinching",
+        "asymmetry",
+        "drift",
+    )
+
+
+def test_hold_out_takes_whole_cycles_from_every_repeated_level():
+    x = _protocol(levels=(1, 2, 3, 4), cycles=3, per_cycle=40)
+    recording = jh.Recording.quasi_static(x, x)
+    fit = jh.StructuralFamily().holdout(recording, 0.3)
+    held = ~fit
+    assert 0.15 < held.mean() < 0.4
+    # Whole cycles: held-out samples come in runs of one cycle's length.
+    starts = np.flatnonzero(np.diff(held.astype(int)) == 1) + 1
+    stops = np.flatnonzero(np.diff(held.astype(int)) == -1) + 1
+    assert len(starts) == len(stops) >= 3
+    assert np.all(np.abs((stops - starts) - 40) <= 2)
+    # Every amplitude level has cycles on both sides of the split.
+    for level in range(4):
+        span = slice(level * 120, (level + 1) * 120)
+        assert held[span].any() and fit[span].any()
+
+
+def test_structural_diagnosis_rejects_records_it_cannot_read():
+    t = np.arange(300.0)
+    ramp = jh.Recording.quasi_static(t, 2 * t)  # no reversal: not a cyclic test
+    with pytest.raises(ValueError, match="reversal"):
+        jh.diagnose(ramp, key=jax.random.key(0), family=jh.StructuralFamily())
+    with pytest.raises(TypeError, match="family"):
+        jh.diagnose(ramp, key=jax.random.key(0), family="bouc-wen")  # type: ignore[arg-type]
+    with pytest.raises(jh.RecordingError, match="samples"):
+        jh.Recording.quasi_static(t, t[:-1])
+
+
+def test_a_large_concealed_pinching_is_named_and_a_clean_test_is_not():
+    x = _protocol()
+    truth = _truth(x)
+    family = jh.StructuralFamily()
+    swarm = jh.MPSO(num_particles=48, num_iterations=60)
+    pinched, sigma = _record(x, truth.replace(pinch=0.8, pinch_width=0.3))
+    diagnosis = jh.diagnose(pinched, key=jax.random.key(0), family=family, swarm=swarm)
+    assert diagnosis.effects == ("pinching",)
+    assert diagnosis.final_rmse < 1.3 * sigma
+    assert diagnosis.findings[0].validation.heldout_gain > 0.5
+    report = diagnosis.to_dict()
+    assert report["model"] == "bouc-wen"
+    assert report["final"]["model"] == "bouc-wen+pinching"
+    assert report["opensees"].startswith("uniaxialMaterial BWBN 1 ")
+    clean, sigma = _record(x, truth, seed=1)
+    diagnosis = jh.diagnose(clean, key=jax.random.key(0), family=family, swarm=swarm)
+    assert diagnosis.findings == [] and diagnosis.unexplained == []
+    assert diagnosis.final_rmse < 1.2 * sigma
+    assert diagnosis.to_dict()["opensees"].startswith("uniaxialMaterial BoucWen 1 ")
