@@ -464,11 +464,18 @@ def test_diagnose_refuses_to_overwrite(diagnosed, short_recording, capsys):
     assert not tmp.exists()
 
 
-@pytest.mark.parametrize("model", ["corrected", "stage", "preisach"])
-def test_diagnose_supports_only_the_piezo_base(model, short_recording, capsys):
+@pytest.mark.parametrize("model", ["corrected", "bouc", "stage"])
+def test_diagnose_names_the_families_it_has(model, short_recording, capsys):
     assert main(["diagnose", str(short_recording), "--model", model]) == 2
     line = _one_error_line(capsys)
-    assert f"--model {model}" in line and "only supports" in line
+    assert f"--model {model}" in line and "--model bouc-wen" in line
+
+
+def test_diagnose_bouc_wen_needs_a_cyclic_record(tmp_path, capsys):
+    path = tmp_path / "ramp.txt"
+    np.savetxt(path, np.stack([np.arange(300.0), 2 * np.arange(300.0)], axis=1))
+    assert main(["diagnose", str(path), "--no-time", "--model", "bouc-wen"]) == 2
+    assert "reversal" in _one_error_line(capsys)
 
 
 def test_diagnose_too_short_recording(tmp_path, capsys):
