@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import jaxhyst as jh
+from jaxhyst import PiezoFamily
 from jaxhyst._models.extended import ExtendedPiezo
 from jaxhyst._report import (
     DIAGNOSIS_FIGURES,
@@ -58,19 +59,20 @@ def diagnosis(recording):
     final_model = ExtendedPiezo.around(TRUTH, inputs).replace(eps=0.01, quad=0.0)
     baseline = jh.error_metrics(y, base_predicted)
     final = jh.error_metrics(y, final_predicted)
-    validation = {
-        "heldout_rmse_before": 0.01,
-        "heldout_rmse_after": 0.002,
-        "fit_rmse_before": 0.01,
-        "fit_rmse_after": 0.002,
-        "heldout_margin_mse": 1e-7,
-        "effective_samples_heldout": 150.0,
-        "bic_change": -300.0,
-        "score_statistic": 420.0,
-        "score_dof": 2,
-        "log10_p": -90.0,
-        "accepted": True,
-    }
+    validation = jh.Validation(
+        heldout_rmse_before=0.01,
+        heldout_rmse_after=0.002,
+        fit_rmse_before=0.01,
+        fit_rmse_after=0.002,
+        heldout_margin_mse=1e-7,
+        heldout_resolution_mse=1e-8,
+        effective_samples_heldout=150.0,
+        bic_change=-300.0,
+        score_statistic=420.0,
+        score_dof=2,
+        log10_p=-90.0,
+        accepted=True,
+    )
     finding = jh.Finding(
         effect="asymmetry",
         evidence="the branches differ: made-up evidence",
@@ -81,45 +83,57 @@ def diagnosis(recording):
         after=final,
         validation=validation,
     )
-    candidates = [
+    directions = np.zeros((y.size, 1))
+    rounds = [
         [
-            {
-                "effect": "asymmetry",
-                "statistic": 420.0,
-                "dof": 2,
-                "log10_p": -90.0,
-                "explained_mse": 1e-4,
-                "significant": True,
-                "start_mse": 1e-5,
-                "validation": validation,
-            },
-            {
-                "effect": "drift",
-                "statistic": np.float64(3.0),
-                "dof": 3,
-                "log10_p": np.float64(-0.5),
-                "explained_mse": np.float64(1e-7),
-                "significant": np.bool_(False),
-                "start_mse": np.float64(1e-5),
-            },
+            jh.Score(
+                "asymmetry",
+                420.0,
+                2,
+                -90.0,
+                1e-4,
+                True,
+                {},
+                directions,
+                1e-5,
+                validation,
+            ),
+            jh.Score(
+                "drift",
+                3.0,
+                3,
+                -0.5,
+                1e-7,
+                False,
+                {},
+                directions,
+                1e-5,
+                rejection="not significant",
+            ),
         ]
     ]
     return jh.Diagnosis(
         recording=recording.name,
         samples=recording.num_samples,
+        family="piezo",
+        base_name="piezo",
         base_model=TRUTH,
         final_model=final_model,
         baseline=baseline,
         final=final,
         findings=[finding],
-        candidates=candidates,
+        unexplained=[],
+        rounds=rounds,
         ambiguities=[AMBIGUITY + "; both explain the mismatch equally."],
         noise_sigma=2e-3,
         noise={"sigma": 2e-3, "lag1_autocorrelation": 0.01, "effective_samples": 500.0},
         location={"overall_rms": 0.01, "holding": {"mean": float("nan")}},
         base_predicted=base_predicted,
         final_predicted=final_predicted,
+        heldout=~PiezoFamily().holdout(recording, 0.3),
         holdout_fraction=0.3,
+        final_parameters={"k1": 1.0, "eps": 0.01},
+        exports={},
         seconds=1.5,
     )
 
