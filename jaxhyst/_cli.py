@@ -796,7 +796,7 @@ def _add_diagnose_parser(subparsers) -> None:
 
 
 # The one table from --model names to diagnosis families.
-_DIAGNOSE_FAMILIES: dict[str, type[AbstractFamily]] = {
+_DIAGNOSE_FAMILIES: dict[str, Callable[[], AbstractFamily]] = {
     "piezo": PiezoFamily,
     "bouc-wen": StructuralFamily,
 }

@@ -378,8 +378,9 @@ def _preload_bundled_blas() -> bool:
     return False
 
 
-def _import_openseespy():
-    """`openseespy.opensees`, or an ImportError that says how to install it."""
+def _import_openseespy() -> Any:
+    """`openseespy.opensees` (a compiled module: typed Any), or an ImportError that
+    says how to install it."""
     try:
         import openseespy.opensees as ops
 

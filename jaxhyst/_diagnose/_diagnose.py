@@ -545,8 +545,10 @@ def _swaps(ctx: _Context, state: _State) -> _State:
     in the model, each runner-up of its round is tried in its place, and replaces it
     if it explains the held-out data better beyond the noise."""
     family = ctx.family
+    noise = state.noise
+    if noise is None:  # set by the first round's score test
+        return state
     for position in range(len(state.findings) - 1):
-        assert state.noise is not None
         finding = state.findings[position]
         adopted_effect = family.effect(finding.effect)
         others, where_then = state.runners_up.get(finding.effect, ([], {}))
@@ -576,7 +578,7 @@ def _swaps(ctx: _Context, state: _State) -> _State:
             change = float(
                 np.sqrt(np.mean((swapped_pred - state.predicted)[ctx.hold_mask] ** 2))
             )
-            resolution = state.noise.resolution(change, state.effective_heldout)
+            resolution = noise.resolution(change, state.effective_heldout)
             later = ", ".join(f.effect for f in state.findings[position + 1 :])
             if hold_now - hold_swapped <= resolution:
                 if hold_swapped - hold_now <= resolution:

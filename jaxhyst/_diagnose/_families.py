@@ -21,7 +21,7 @@ from .._params import ParameterSpace
 from .._recording import Recording
 from .._simulate import RK4
 from ._effects.asymmetry import Asymmetry
-from ._effects.base import AbstractEffect
+from ._effects.base import AbstractEffect, model_as
 from ._effects.creep import Creep
 from ._effects.degradation import Degradation
 from ._effects.drift import Drift
@@ -164,8 +164,8 @@ class PiezoFamily(AbstractFamily):
     def refit_stride(self, model, recording):
         # Quasi-static fits see turning points, not the sample rate: 250 Hz is
         # plenty. A resonance needs >= 4 samples per period at its starting frequency.
-        dynamic = bool(getattr(model, "dynamic", False))
-        slowest = 4 * float(model.natural_frequency) if dynamic else 250.0
+        piezo = model_as(model, ExtendedPiezo, "piezo family")
+        slowest = 4 * float(piezo.natural_frequency) if piezo.dynamic else 250.0
         stride = max(1, int(recording.sample_rate // max(250.0, slowest)))
         return stride if recording.num_samples > 20 * stride else 1
 

@@ -9,7 +9,7 @@ on, where a refit starts, and the words of its evidence.
 """
 
 import abc
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 import equinox as eqx
 import numpy as np
@@ -109,3 +109,17 @@ class AbstractEffect(eqx.Module):
     def evidence(self, where: dict[str, Any], model: AbstractHysteresisModel) -> str:
         """The location figures (`where`, from the family's `locate`) and fitted
         values (`model`) that support this effect, in words."""
+
+
+ModelT = TypeVar("ModelT", bound=AbstractHysteresisModel)
+
+
+def model_as(model: AbstractHysteresisModel, cls: type[ModelT], effect: str) -> ModelT:
+    """`model` as its family's extended model class, or a TypeError naming the
+    mismatch (an effect of one family asked about another family's model)."""
+    if not isinstance(model, cls):
+        raise TypeError(
+            f"the {effect!r} effect acts on {cls.__name__} models, got "
+            f"{type(model).__name__}; pass a model of the same family."
+        )
+    return model

@@ -3,7 +3,8 @@
 import math
 from typing import ClassVar
 
-from .base import AbstractEffect
+from ..._models.structural import StructuralBoucWen
+from .base import AbstractEffect, model_as
 
 
 class Degradation(AbstractEffect):
@@ -24,6 +25,7 @@ class Degradation(AbstractEffect):
 
     def evidence(self, where, model):
         energy = max(float(where["dissipated_energy"]), 0.0)
+        model = model_as(model, StructuralBoucWen, self.name)
         n = float(model.n)
         nu = max(1 + float(model.strength_degradation) * energy, 1e-2)
         eta = max(1 + float(model.stiffness_degradation) * energy, 1e-2)

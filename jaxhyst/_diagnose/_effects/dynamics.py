@@ -6,7 +6,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from .base import AbstractEffect, RefitScales
+from ..._models.base import AbstractHysteresisModel
+from ..._models.extended import ExtendedPiezo
+from .base import AbstractEffect, RefitScales, model_as
 
 
 class Dynamics(AbstractEffect):
@@ -23,15 +25,16 @@ class Dynamics(AbstractEffect):
     log_scaled: ClassVar[tuple[str, ...]] = ("natural_frequency", "damping_ratio")
 
     def is_on(self, model):
-        return bool(model.dynamic)
+        return model_as(model, ExtendedPiezo, self.name).dynamic
 
     def switch_off(self, model):
-        return dataclasses.replace(model, dynamic=False)  # pyright: ignore[reportArgumentType]
+        piezo = model_as(model, ExtendedPiezo, self.name)
+        return dataclasses.replace(piezo, dynamic=False)
 
     def take_from(self, model, source):
-        return model.with_dynamics(
-            float(source.natural_frequency),
-            float(source.damping_ratio),
+        source = model_as(source, ExtendedPiezo, self.name)
+        return model_as(model, ExtendedPiezo, self.name).with_dynamics(
+            float(source.natural_frequency), float(source.damping_ratio)
         )
 
     def sensitivity_parameters(self, model):
@@ -64,7 +67,11 @@ class Dynamics(AbstractEffect):
             zeta = min(2.0, max(0.01, a1 * omega / 2))
             points.append((min(0.45 * fs, omega / (2 * math.pi)), zeta))
         points += [(fs / d, z) for d in (40, 20, 10, 5, 2.5) for z in (0.05, 0.2, 0.5)]
-        return [current.with_dynamics(f, z) for f, z in points]
+        piezo = model_as(current, ExtendedPiezo, self.name)
+        starts: list[AbstractHysteresisModel] = [
+            piezo.with_dynamics(f, z) for f, z in points
+        ]
+        return starts
 
     def always_refit(self):
         # The linearised score understates a resonance (far from linear in

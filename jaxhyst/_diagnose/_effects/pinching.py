@@ -3,7 +3,8 @@
 import itertools
 from typing import ClassVar
 
-from .base import AbstractEffect, RefitScales
+from ..._models.structural import StructuralBoucWen
+from .base import AbstractEffect, RefitScales, model_as
 
 
 class Pinching(AbstractEffect):
@@ -54,7 +55,7 @@ class Pinching(AbstractEffect):
         return True
 
     def evidence(self, where, model):
-        pinch = float(model.pinch)
+        pinch = float(model_as(model, StructuralBoucWen, self.name).pinch)
         return (
             f"residual RMS near zero force is {where['near_zero_force']['relative']:.2f}x "
             f"and on reloading through it "

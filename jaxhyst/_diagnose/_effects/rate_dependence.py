@@ -2,7 +2,8 @@
 
 from typing import ClassVar
 
-from .base import AbstractEffect, RefitScales
+from ..._models.extended import ExtendedPiezo
+from .base import AbstractEffect, RefitScales, model_as
 
 
 class RateDependence(AbstractEffect):
@@ -33,7 +34,8 @@ class RateDependence(AbstractEffect):
         if step.get("viscous"):
             # A viscoelastic element saturates above 1/time: longer times need
             # more gain.
-            viscous = float(current.viscous) + step["viscous"]
+            piezo = model_as(current, ExtendedPiezo, self.name)
+            viscous = float(piezo.viscous) + step["viscous"]
             models += [
                 current.replace(viscous=gain * viscous, viscous_time=time)
                 for time in (0.005, 0.01, 0.02, 0.05, 0.1)
