@@ -48,8 +48,9 @@ _INSTALL_HINT = (
 _RELATIVE_TOL = 1e-10
 _MAX_ITER = 100
 _DRIFT = ("offset", "trend", "curvature", "wander")
-# StructuralBoucWen's parameters this export knows; any other one that is on is
-# reported as dropped under its own name.
+# StructuralBoucWen's parameters this export knows, listed on purpose (not read from
+# the model): a parameter added to the model later and switched on is reported as
+# dropped under its own name until the export learns it.
 _KNOWN = frozenset(
     (
         "k",

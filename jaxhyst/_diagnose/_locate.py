@@ -94,6 +94,23 @@ def locate(t: np.ndarray, u: np.ndarray, residual: np.ndarray) -> dict[str, Any]
     }
 
 
+def _standing_out(
+    where: dict[str, Any], labels: dict[str, str], trend: str
+) -> list[str]:
+    """The labelled categories whose residual RMS is 1.25x the overall or more,
+    and the slow trend when it carries half of the residual."""
+    parts = []
+    for key, label in labels.items():
+        entry = where[key]
+        if entry["fraction"] > 0.01 and entry["relative"] > 1.25:
+            parts.append(f"{label} ({entry['relative']:.1f}x the overall RMS)")
+    overall = where["overall_rms"]
+    if overall > 0 and where["slow_trend_rms"] > 0.5 * overall:
+        share = where["slow_trend_rms"] / overall
+        parts.append(trend.format(share=share))
+    return parts
+
+
 def describe(where: dict[str, Any]) -> str:
     """One sentence naming the categories where the residual stands out."""
     labels = {
@@ -106,19 +123,8 @@ def describe(where: dict[str, Any]) -> str:
         "fast_rate": "at fast rates",
         "after_hold": "in the seconds after a hold begins",
     }
-    parts = []
-    for key, label in labels.items():
-        entry = where[key]
-        if entry["fraction"] > 0.01 and entry["relative"] > 1.25:
-            parts.append(f"{label} ({entry['relative']:.1f}x the overall RMS)")
-    overall = where["overall_rms"]
-    if overall > 0 and where["slow_trend_rms"] > 0.5 * overall:
-        parts.append(
-            f"as a slow trend in time ({where['slow_trend_rms'] / overall:.0%} of it "
-            "survives a 1 s average)"
-        )
-    if not parts:
-        parts.append("spread evenly over the record")
+    trend = "as a slow trend in time ({share:.0%} of it survives a 1 s average)"
+    parts = _standing_out(where, labels, trend) or ["spread evenly over the record"]
     return (
         "mismatch "
         + "; ".join(parts)
@@ -210,17 +216,9 @@ def describe_cycles(where: dict[str, Any]) -> str:
         "first_third": "in the first third of the test",
         "last_third": "in the last third of the test",
     }
-    parts = []
-    for key, label in labels.items():
-        entry = where[key]
-        if entry["fraction"] > 0.01 and entry["relative"] > 1.25:
-            parts.append(f"{label} ({entry['relative']:.1f}x the overall RMS)")
-    overall = where["overall_rms"]
-    if overall > 0 and where["slow_trend_rms"] > 0.5 * overall:
-        parts.append(
-            f"as a slow trend along the test ({where['slow_trend_rms'] / overall:.0%} "
-            "of it survives a moving average over 1/25 of the record)"
-        )
-    if not parts:
-        parts.append("spread evenly over the test")
+    trend = (
+        "as a slow trend along the test ({share:.0%} of it survives a moving "
+        "average over 1/25 of the record)"
+    )
+    parts = _standing_out(where, labels, trend) or ["spread evenly over the test"]
     return "mismatch " + "; ".join(parts)
