@@ -65,12 +65,15 @@ class _Context(eqx.Module):
 
 
 class _Trial(eqx.Module):
-    """A candidate refitted: its score, the model, its output, its validation."""
+    """A candidate refitted: its score, the model, its output, its validation,
+    and the null refit it was judged against (the model it extends refitted from
+    the candidate's values, when that fitted the held-out data better)."""
 
     score: Score
     model: AbstractHysteresisModel
     predicted: np.ndarray
     validation: Validation
+    null: tuple[AbstractHysteresisModel, np.ndarray] | None = None
 
 
 class _State(eqx.Module):
@@ -92,6 +95,8 @@ class _State(eqx.Module):
     # How far each parameter must move to change the output by its RMS (the
     # latest round's sensitivities).
     natural: dict[str, float] = eqx.field(default_factory=dict)
+    # Effects that have passed held-out validation in some round.
+    passed: frozenset[str] = frozenset()
 
     @property
     def adopted(self) -> tuple[str, ...]:
@@ -307,6 +312,8 @@ def _refit_candidates(
         for c in significant[policy.refits_per_round :]
         if family.effect(c.effect).always_refit()
     ]
+    if policy.refit_runners_up:
+        chosen += [c for c in scores if not c.significant and c.effect in state.passed]
     scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
     starts = {}
     updated = {c.effect: c for c in scores}
@@ -345,12 +352,53 @@ def _refit_candidates(
             )
             continue
         validation = _validate(ctx, state, c, effect, new_pred)
-        score = dataclasses.replace(updated[c.effect], validation=validation)
-        if not validation.accepted:
-            score = dataclasses.replace(score, rejection=_why_rejected(validation))
+        rejection = None if validation.accepted else _why_rejected(validation)
+        null = None
+        if policy.null_refit and validation.accepted:
+            validation, rejection, null = _against_null(
+                ctx, state, c, effect, refitted, new_pred
+            )
+        score = dataclasses.replace(
+            updated[c.effect], validation=validation, rejection=rejection
+        )
         updated[c.effect] = score
-        trials.append(_Trial(score, refitted, new_pred, validation))
+        trials.append(_Trial(score, refitted, new_pred, validation, null))
     return [updated[c.effect] for c in scores], trials
+
+
+def _against_null(
+    ctx: _Context,
+    state: _State,
+    score: Score,
+    effect: AbstractEffect,
+    refitted: AbstractHysteresisModel,
+    predicted: np.ndarray,
+) -> tuple[Validation, str | None, tuple[AbstractHysteresisModel, np.ndarray] | None]:
+    """The candidate validated against the model it extends, refitted from the
+    candidate's refitted values with the effect switched off (when that null fits
+    the held-out data better than the current model)."""
+    null = _refit(
+        ctx,
+        state,
+        effect.switch_off(refitted),
+        state.free,
+        max_steps=ctx.policy.candidate_steps,
+    )
+    null_pred = _predict(ctx, null)
+    current_hold = _mse(ctx.y - state.predicted, ctx.hold_mask)
+    if not _finite(null_pred) or _mse(ctx.y - null_pred, ctx.hold_mask) >= current_hold:
+        return _validate(ctx, state, score, effect, predicted), None, None
+    versus = dataclasses.replace(state, current=null, predicted=null_pred)
+    validation = _validate(ctx, versus, score, effect, predicted)
+    if validation.accepted:
+        return validation, None, (null, null_pred)
+    return (
+        validation,
+        "its held-out gain came from refitting the parameters already in the model "
+        "(the refit found a better basin for them), not from the effect: "
+        + _why_rejected(validation),
+        (null, null_pred),
+    )
 
 
 def _why_rejected(v: Validation) -> str:
@@ -471,6 +519,20 @@ def _near_misses(
     )
 
 
+def _better_base(ctx: _Context, state: _State, trials: list[_Trial]):
+    """The null refit (no effect added) that fits the fitted samples best, if it
+    beats the current model there."""
+    nulls = [t.null for t in trials if t.null is not None]
+    if not nulls:
+        return None
+    best = min(nulls, key=lambda n: _mse(ctx.y - n[1], ctx.fit_mask))
+    if _mse(ctx.y - best[1], ctx.fit_mask) < _mse(
+        ctx.y - state.predicted, ctx.fit_mask
+    ):
+        return best
+    return None
+
+
 def _forward(ctx: _Context, state: _State) -> _State:
     """Forward selection: score, refit, adopt; until nothing is accepted."""
     for _ in range(ctx.policy.max_effects):
@@ -479,8 +541,19 @@ def _forward(ctx: _Context, state: _State) -> _State:
             # Refits (this round's and any later stage's) use these scales.
             state = dataclasses.replace(state, natural=natural)
         scores, trials = _refit_candidates(ctx, state, scores)
-        state = dataclasses.replace(state, rounds=state.rounds + (scores,))
+        passed = {t.score.effect for t in trials if t.validation.accepted}
+        state = dataclasses.replace(
+            state, rounds=state.rounds + (scores,), passed=state.passed | passed
+        )
         if not any(t.validation.accepted for t in trials):
+            better = _better_base(ctx, state, trials)
+            if better is not None:
+                # No effect, but a better basin for the model's own parameters:
+                # take it and score again from there.
+                state = dataclasses.replace(
+                    state, current=better[0], predicted=better[1]
+                )
+                continue
             near = _near_misses(ctx, state, column, trials) if trials else []
             return dataclasses.replace(
                 state, ambiguities=state.ambiguities + tuple(near)
@@ -680,7 +753,7 @@ def diagnose(
     family: AbstractFamily = PiezoFamily(),
     base: AbstractHysteresisModel | None = None,
     holdout_fraction: float = 0.3,
-    policy: AdoptionPolicy = AdoptionPolicy(),
+    policy: AdoptionPolicy | None = None,
     swarm: MPSO | None = MPSO(num_particles=100, num_iterations=200),
     progress: bool = False,
     device: jax.Device | None = None,
@@ -705,7 +778,8 @@ def diagnose(
     5. Final refit on every sample, and the residual that remains structured on
        held-out data but matches no effect is reported as `unexplained`.
 
-    `policy` holds the adoption rules (`AdoptionPolicy`). `device`: where the
+    `policy` holds the adoption rules (`AdoptionPolicy`; None: the family's
+    `default_policy()`). `device`: where the
     diagnosis runs; None: the host CPU when the default device is an accelerator
     (its refits and Jacobians integrate one trajectory at a time, which a CPU
     runs faster), else the default device.
@@ -719,6 +793,8 @@ def diagnose(
             "diagnose: family must be a family object such as jh.PiezoFamily() or "
             f"jh.StructuralFamily(), got {type(family).__name__}."
         )
+    if policy is None:
+        policy = family.default_policy()
     if not isinstance(policy, AdoptionPolicy):
         raise TypeError(
             f"diagnose: policy must be an AdoptionPolicy, got {type(policy).__name__}."

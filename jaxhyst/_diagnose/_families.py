@@ -31,6 +31,7 @@ from ._effects.pinching import Pinching
 from ._effects.push_pull import PushPullAsymmetry
 from ._effects.rate_dependence import RateDependence
 from ._locate import describe, describe_cycles, locate, locate_cycles
+from ._policy import AdoptionPolicy
 
 
 class AbstractFamily(eqx.Module):
@@ -74,6 +75,10 @@ class AbstractFamily(eqx.Module):
     @abc.abstractmethod
     def base_template(self) -> AbstractHysteresisModel:
         """The base model class `identify` fits (its values are unused)."""
+
+    def default_policy(self) -> AdoptionPolicy:
+        """The adoption rules `diagnose` uses unless given a policy."""
+        return AdoptionPolicy()
 
     def base_space(self, recording: Recording) -> ParameterSpace | None:
         """The base fit's parameter space; None: `ParameterSpace.default`."""
@@ -201,6 +206,11 @@ class StructuralFamily(AbstractFamily):
 
     def base_template(self):
         return BoucWen(1.0, 0.5, 1.0, 1.0, 1.0, 1.0, 1.5)
+
+    def default_policy(self):
+        # Cyclic tests have a few hundred to a few thousand samples: the score
+        # test's AR noise model absorbs smooth misfit there (see AdoptionPolicy).
+        return AdoptionPolicy(refit_runners_up=True, null_refit=True)
 
     def base_space(self, recording):
         # D = 1 and A = 1 fix the gauge (z -> c z leaves the force unchanged

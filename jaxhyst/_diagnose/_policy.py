@@ -25,6 +25,15 @@ class AdoptionPolicy(eqx.Module):
     - `candidate_steps`, `converge_steps`, `final_steps`: Levenberg-Marquardt steps
       of a candidate's refit, of converging an adopted model, and of the final fit
       on every sample.
+    - `refit_runners_up`: also refit, in later rounds, effects that passed held-out
+      validation in an earlier round, even when the score test no longer flags
+      them. On short records (a few thousand samples) the AR noise model read from
+      the residual absorbs smooth structure and the score test loses power; the
+      held-out data still decide.
+    - `null_refit`: credit an accepted candidate only with its held-out gain over
+      the model it extends refitted from the candidate's refitted values (the
+      effect switched off): the candidate's swarm may have found a better basin for
+      the parameters already in the model, and that gain is not the effect's.
     """
 
     significance: float = 1e-6
@@ -36,6 +45,8 @@ class AdoptionPolicy(eqx.Module):
     candidate_steps: int = 20
     converge_steps: int = 40
     final_steps: int = 30
+    refit_runners_up: bool = False
+    null_refit: bool = False
 
     def __check_init__(self):
         if not 0 < self.significance < 1:
