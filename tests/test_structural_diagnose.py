@@ -109,3 +109,30 @@ def test_a_large_concealed_pinching_is_named_and_a_clean_test_is_not():
     assert diagnosis.findings == [] and diagnosis.unexplained == []
     assert diagnosis.final_rmse < 1.2 * sigma
     assert diagnosis.to_dict()["opensees"].startswith("uniaxialMaterial BoucWen 1 ")
+
+
+def test_a_better_basin_for_the_base_is_not_credited_to_an_effect():
+    # A clean record diagnosed from a poorly fitted base: a candidate's refit (whose
+    # short swarm also moves the base parameters) finds the right basin, and without
+    # the null refit that gain would be credited to the effect.
+    x = _protocol()
+    truth = _truth(x)
+    clean, sigma = _record(x, truth, seed=2)
+    poor = truth.replace(k=0.9 * float(truth.k), beta=0.35, gamma=0.15)
+    family = jh.StructuralFamily()
+    # Every candidate refitted (a lax score gate), so that the null refit decides.
+    careful = jh.AdoptionPolicy(
+        significance=0.5, refit_runners_up=True, null_refit=True
+    )
+    diagnosis = jh.diagnose(
+        clean, key=jax.random.key(0), family=family, base=poor, policy=careful
+    )
+    assert diagnosis.findings == []
+    assert diagnosis.final_rmse < 1.2 * sigma
+    rejected = [c.get("rejected", "") for r in diagnosis.candidates for c in r]
+    assert any("better basin" in text for text in rejected)
+    credulous = jh.AdoptionPolicy(significance=0.5, noise_bound=True)
+    fooled = jh.diagnose(
+        clean, key=jax.random.key(0), family=family, base=poor, policy=credulous
+    )
+    assert fooled.findings != []

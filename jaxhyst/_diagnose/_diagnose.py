@@ -279,7 +279,8 @@ def _validate(
     before_fit, after_fit = _mse(residual, ctx.fit_mask), _mse(new_res, ctx.fit_mask)
     n_eff_fit = state.noise.effective_ratio * ctx.fit_mask.sum()
     change = float(np.sqrt(np.mean((new_pred - state.predicted)[ctx.hold_mask] ** 2)))
-    resolution = state.noise.resolution(change, state.effective_heldout)
+    bound = math.sqrt(min(before_hold, after_hold)) if ctx.policy.noise_bound else None
+    resolution = state.noise.resolution(change, state.effective_heldout, bound=bound)
     margin = max(ctx.policy.min_heldout_gain * before_hold, resolution)
     p = len(effect.parameters)
     bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(n_eff_fit)

@@ -30,6 +30,10 @@ class AdoptionPolicy(eqx.Module):
       them. On short records (a few thousand samples) the AR noise model read from
       the residual absorbs smooth structure and the score test loses power; the
       held-out data still decide.
+    - `noise_bound`: bound the noise level of the held-out resolution by the better
+      fit's held-out RMS (no model's residual is smaller than the noise). Where the
+      base model misfits badly, the AR noise model's sd is mostly misfit and would
+      demand far too large a gain.
     - `null_refit`: credit an accepted candidate only with its held-out gain over
       the model it extends refitted from the candidate's refitted values (the
       effect switched off): the candidate's swarm may have found a better basin for
@@ -47,6 +51,7 @@ class AdoptionPolicy(eqx.Module):
     final_steps: int = 30
     refit_runners_up: bool = False
     null_refit: bool = False
+    noise_bound: bool = False
 
     def __check_init__(self):
         if not 0 < self.significance < 1:

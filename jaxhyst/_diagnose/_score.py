@@ -116,11 +116,15 @@ class NoiseModel(eqx.Module):
         ratio = min(1.0, max(1e-4, float(np.var(unexplained)) / long_run))
         return cls(ar, innovation, float(np.std(unexplained)), ratio)
 
-    def resolution(self, change: float, effective_samples: float) -> float:
+    def resolution(
+        self, change: float, effective_samples: float, *, bound: float | None = None
+    ) -> float:
         """How small a held-out MSE difference can be told from noise, for two fits
         whose outputs differ by `change` (rms): ~3 x its standard error
-        2*sigma*change/sqrt(N_eff)."""
-        return 3 * 2 * self.sd * change / math.sqrt(effective_samples)
+        2*sigma*change/sqrt(N_eff). `bound`: an upper bound on sigma (the held-out
+        RMS of a fit: no model's residual is smaller than the noise)."""
+        sd = self.sd if bound is None else min(self.sd, bound)
+        return 3 * 2 * sd * change / math.sqrt(effective_samples)
 
 
 def chi2():
