@@ -122,7 +122,7 @@ def test_a_better_basin_for_the_base_is_not_credited_to_an_effect():
     family = jh.StructuralFamily()
     # Every candidate refitted (a lax score gate), so that the null refit decides.
     careful = jh.AdoptionPolicy(
-        significance=0.5, refit_runners_up=True, null_refit=True
+        significance=0.5, refit_runners_up=True, null_refit=True, noise_bound=True
     )
     diagnosis = jh.diagnose(
         clean, key=jax.random.key(0), family=family, base=poor, policy=careful
