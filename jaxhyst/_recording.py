@@ -227,6 +227,12 @@ class Recording(eqx.Module):
     # ------------------------------------------------------------------ properties
 
     @property
+    def has_pseudo_time(self) -> bool:
+        """Whether the time axis only orders the samples (`quasi_static` records,
+        time unit "sample" or "pseudo s")."""
+        return self.time_unit in ("sample", "pseudo s")
+
+    @property
     def num_samples(self) -> int:
         """Number of samples."""
         return int(self.t.shape[0])

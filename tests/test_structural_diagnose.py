@@ -88,6 +88,9 @@ def test_structural_diagnosis_rejects_records_it_cannot_read():
         jh.diagnose(ramp, key=jax.random.key(0), family="bouc-wen")  # type: ignore[arg-type]
     with pytest.raises(jh.RecordingError, match="samples"):
         jh.Recording.quasi_static(t, t[:-1])
+    cyclic = jh.Recording.quasi_static(_protocol(), _protocol())
+    with pytest.raises(ValueError, match="pseudo time.*StructuralFamily"):
+        jh.diagnose(cyclic, key=jax.random.key(0))  # the piezo family
 
 
 def test_a_large_concealed_pinching_is_named_and_a_clean_test_is_not():

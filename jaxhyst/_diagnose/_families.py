@@ -144,6 +144,14 @@ class PiezoFamily(AbstractFamily):
     gauge: ClassVar[tuple[str, ...]] = ("A1",)
 
     def check(self, recording):
+        if recording.has_pseudo_time:
+            raise ValueError(
+                f"diagnose: recording {recording.name!r} has a pseudo time (unit "
+                f"{recording.time_unit!r}: a quasi-static record), but the piezo "
+                "family's effects (rate dependence, creep, dynamics, drift) are "
+                "functions of real time; use family=jh.StructuralFamily() (--model "
+                "bouc-wen) for cyclic tests, or load the record with its time column."
+            )
         recording.require_samples(200, what="the piezo diagnosis")
 
     def base_template(self):
