@@ -495,15 +495,10 @@ def diagnosis_markdown(
             f"{s}."
         )
     held = float(np.mean(diagnosis.heldout))
-    split = (
-        "in whole cycles interleaved through the test"
-        if diagnosis.family == "structural"
-        else "in blocks spread over it"
-    )
     out += [
         "",
         f"The base model was fitted on {100 * (1 - held):.0f} % of the record; the "
-        f"other {100 * held:.0f} %, {split}, is held out to judge every candidate. "
+        f"other {100 * held:.0f} %, {diagnosis.holdout_description}, is held out to judge every candidate. "
         "The residual left at the end"
         f" has RMS {_number(scale * diagnosis.noise_sigma)}{s}, lag-1 "
         f"autocorrelation {_number(diagnosis.noise.get('lag1_autocorrelation'), 3)}.",

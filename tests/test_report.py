@@ -131,6 +131,7 @@ def diagnosis(recording):
         base_predicted=base_predicted,
         final_predicted=final_predicted,
         heldout=~PiezoFamily().holdout(recording, 0.3),
+        holdout_description=PiezoFamily.holdout_description,
         holdout_fraction=0.3,
         final_parameters={"k1": 1.0, "eps": 0.01},
         exports={},

@@ -901,6 +901,7 @@ def _diagnose(
         base_predicted,
         final_pred,
         ~fit_mask,
+        family.holdout_description,
         float(holdout_fraction),
         final_parameters,
         family.exports(final_model, recording),

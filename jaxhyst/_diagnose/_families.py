@@ -47,6 +47,8 @@ class AbstractFamily(eqx.Module):
     # The base parameters a refit moves (the gauge parameter stays fixed).
     base_free: ClassVar[tuple[str, ...]]
     gauge: ClassVar[tuple[str, ...]]
+    # How `holdout` splits a record, in words (for reports).
+    holdout_description: ClassVar[str]
     catalogue: eqx.AbstractVar[tuple[AbstractEffect, ...]]
 
     @property
@@ -142,6 +144,7 @@ class PiezoFamily(AbstractFamily):
     base_name: ClassVar[str] = "piezo"
     base_free: ClassVar[tuple[str, ...]] = ("k1", "k2", "beta1", "gamma1", "n")
     gauge: ClassVar[tuple[str, ...]] = ("A1",)
+    holdout_description: ClassVar[str] = "in 30 short blocks spread over the record"
 
     def check(self, recording):
         if recording.has_pseudo_time:
@@ -200,6 +203,9 @@ class StructuralFamily(AbstractFamily):
     base_name: ClassVar[str] = "bouc-wen"
     base_free: ClassVar[tuple[str, ...]] = ("k", "alpha", "beta", "gamma", "n")
     gauge: ClassVar[tuple[str, ...]] = ("A",)
+    holdout_description: ClassVar[str] = (
+        "in whole cycles interleaved through the test, one per amplitude level"
+    )
 
     def check(self, recording):
         recording.require_samples(100, what="the structural diagnosis")

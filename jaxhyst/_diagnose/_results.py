@@ -154,8 +154,9 @@ class Diagnosis(eqx.Module):
     location: dict[str, Any]
     base_predicted: np.ndarray
     final_predicted: np.ndarray
-    # True on the held-out samples.
+    # True on the held-out samples, and how the family chose them.
     heldout: np.ndarray
+    holdout_description: str
     holdout_fraction: float
     final_parameters: dict[str, float]
     # Family-specific keys of the JSON (the structural family: `opensees`).
