@@ -282,6 +282,14 @@ def opensees_material(
             "sign, so the exported loops have sharp reversals"
         )
 
+    cap = _scalar(model, "displacement_scale")
+    if pinching and math.isfinite(zu) and zu > cap:
+        dropped.append("pinching position")
+        reasons.append(
+            f"the pinching's position: jaxhyst places it at zu capped at max|x| = "
+            f"{cap:.4g} (the loop does not saturate within the test, zu = {zu:.4g}); "
+            "BWBN uses zu itself"
+        )
     tol = _RELATIVE_TOL * (zu if math.isfinite(zu) else 1.0)
     if pinching:
         if not math.isfinite(zu):

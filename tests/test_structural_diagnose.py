@@ -139,3 +139,34 @@ def test_a_better_basin_for_the_base_is_not_credited_to_an_effect():
         clean, key=jax.random.key(0), family=family, base=poor, policy=credulous
     )
     assert fooled.findings != []
+
+
+def test_a_gain_the_record_cannot_resolve_is_said_so():
+    from jaxhyst._diagnose._ambiguity import unresolved
+
+    def validation(after, resolution, accepted=False):
+        return jh.Validation(
+            heldout_rmse_before=1.0,
+            heldout_rmse_after=after,
+            fit_rmse_before=1.0,
+            fit_rmse_after=after,
+            heldout_margin_mse=max(0.05, resolution),
+            heldout_resolution_mse=resolution,
+            effective_samples_heldout=8.0,
+            bic_change=-5.0,
+            score_statistic=100.0,
+            score_dof=2,
+            log10_p=-20.0,
+            accepted=accepted,
+        )
+
+    # 29 % of the held-out MSE, under a resolution of 2.1: the data cannot tell.
+    (message,) = unresolved([("degradation", validation(0.84, 2.1))])
+    assert message.startswith("cannot tell whether degradation is present")
+    assert "29%" in message and "8 effective" in message
+    # Not said: a gain the record resolves (then it was rejected for another
+    # reason), a gain below the floor, a worse fit, an accepted candidate.
+    assert unresolved([("degradation", validation(0.84, 0.1))]) == []
+    assert unresolved([("degradation", validation(0.99, 2.1))]) == []
+    assert unresolved([("degradation", validation(1.1, 2.1))]) == []
+    assert unresolved([("degradation", validation(0.5, 2.1, accepted=True))]) == []

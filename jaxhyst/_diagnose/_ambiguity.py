@@ -47,6 +47,29 @@ def standing_in(
     return messages
 
 
+def unresolved(
+    rejected: list[tuple[str, Validation]], *, min_gain: float = 0.05
+) -> list[str]:
+    """Statements for rejected candidates whose held-out gain was worth having (at
+    least `min_gain` of the held-out MSE) but within what this record's held-out
+    data can resolve: the data cannot tell, which is not the same as no effect."""
+    messages = []
+    for effect, v in rejected:
+        before = v.heldout_rmse_before**2
+        gain = before - v.heldout_rmse_after**2
+        if v.accepted or gain < min_gain * before or gain > v.heldout_resolution_mse:
+            continue
+        messages.append(
+            f"cannot tell whether {effect} is present: adding it lowered the held-out "
+            f"error by {gain / before:.0%}, but this record's held-out data resolve "
+            f"only MSE changes above {v.heldout_resolution_mse:.3g} (the residual is "
+            f"smooth and strongly correlated: about {v.effective_samples_heldout:.0f} "
+            "effective held-out samples). Record more cycles (or more samples per "
+            "cycle) to decide."
+        )
+    return messages
+
+
 def cannot_tell(
     winner: str,
     other: str,

@@ -26,7 +26,7 @@ from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
 from .._simulate import RK4
 from .._swarm import MPSO
-from ._ambiguity import cannot_tell, cannot_tell_after, standing_in
+from ._ambiguity import cannot_tell, cannot_tell_after, standing_in, unresolved
 from ._effects.base import AbstractEffect, RefitScales
 from ._families import AbstractFamily, PiezoFamily
 from ._locate import effective_samples
@@ -556,6 +556,10 @@ def _forward(ctx: _Context, state: _State) -> _State:
                 )
                 continue
             near = _near_misses(ctx, state, column, trials) if trials else []
+            near += unresolved(
+                [(t.score.effect, t.validation) for t in trials],
+                min_gain=ctx.policy.min_heldout_gain,
+            )
             return dataclasses.replace(
                 state, ambiguities=state.ambiguities + tuple(near)
             )

@@ -19,6 +19,8 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   (Legendre terms), s the time in [-1, 1]
   (load-cell offsets and slow drift that do not follow the mechanics).
 
+The pinching's zu is capped at the record's max|x| (`displacement_scale`), where
+OpenSees has no cap: such a model exports to BWBN inexactly.
 The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the record,
 set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
 about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
@@ -70,6 +72,7 @@ class StructuralBoucWen(AbstractHysteresisModel):
     wander: Float[Array, ""] = _field(0.0)
     pinch_lambda: Float[Array, ""] = _normaliser(0.5)
     energy_scale: Float[Array, ""] = _normaliser(1.0)
+    displacement_scale: Float[Array, ""] = _normaliser(1e30)
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
@@ -147,6 +150,7 @@ class StructuralBoucWen(AbstractHysteresisModel):
             base.n,
             pinch_lambda=base.pinch_lambda,
             energy_scale=jnp.maximum(output_scale * jnp.max(jnp.abs(x)), 1e-30),
+            displacement_scale=jnp.maximum(jnp.max(jnp.abs(x)), 1e-30),
             time_center=(inputs.t0 + inputs.t1) / 2,
             time_scale=(inputs.t1 - inputs.t0) / 2,
             smoothing=base.smoothing,
@@ -154,9 +158,11 @@ class StructuralBoucWen(AbstractHysteresisModel):
 
     def saturation(self) -> Float[Array, ""]:
         """zu = (1/(beta + gamma))^(1/n): where the undegraded hysteretic
-        displacement saturates (OpenSees BWBN's zu)."""
+        displacement saturates (OpenSees BWBN's zu), capped at `displacement_scale`
+        (the record's max|x|, set by `around`): a loop that does not saturate within
+        the test (beta + gamma <= 0 or zu beyond max|x|) still has a place to pinch."""
         total = jnp.maximum(self.beta + self.gamma, 1e-30)
-        return jnp.exp(-jnp.log(total) / self.n)
+        return jnp.minimum(jnp.exp(-jnp.log(total) / self.n), self.displacement_scale)
 
     def vector_field(self, t, state, drive):
         s = self.smoothing
