@@ -224,7 +224,7 @@ def plain_fit(recording, family, mask, key, swarm_kwargs) -> dict:
         space=family.base_space(recording),
         solver=family.solver(recording),
         weights=jax.numpy.asarray((~mask).astype(np.float64)),
-        **swarm_kwargs,
+        **{"swarm": family.base_swarm(), **swarm_kwargs},
     )
     predicted = np.asarray(fit.predicted)
     return {

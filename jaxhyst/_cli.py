@@ -494,6 +494,13 @@ def _add_swarm_options(parser, *, presets: bool) -> None:
     )
 
 
+def _diagnosis_swarm(args: argparse.Namespace) -> MPSO | None:
+    """The base fit's swarm from --particles/--iterations, or None (the family's)."""
+    if args.particles is None and args.iterations is None:
+        return None
+    return _swarm(args)
+
+
 def _swarm(args: argparse.Namespace) -> MPSO:
     sizes = {}
     if args.particles is not None:
@@ -819,7 +826,7 @@ def _family(name: str) -> AbstractFamily:
 
 def _run_diagnose(args: argparse.Namespace) -> int:
     family = _family(args.model)
-    swarm = _swarm(args)
+    swarm = _diagnosis_swarm(args)
     files: list[tuple[str, Path]] = []
     json_path = Path(args.json) if args.json is not None else None
     report_path = Path(args.report) if args.report is not None else None

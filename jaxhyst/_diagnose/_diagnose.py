@@ -153,7 +153,7 @@ def _predict(ctx: _Context, model) -> np.ndarray:
 def _base_fit(
     ctx: _Context,
     base: AbstractHysteresisModel | None,
-    swarm: MPSO | None,
+    swarm: MPSO,
     progress: bool,
 ) -> tuple[_State, AbstractHysteresisModel]:
     """The base model fitted on the fit mask (unless given), and the extended model
@@ -759,7 +759,7 @@ def diagnose(
     base: AbstractHysteresisModel | None = None,
     holdout_fraction: float = 0.3,
     policy: AdoptionPolicy | None = None,
-    swarm: MPSO | None = MPSO(num_particles=100, num_iterations=200),
+    swarm: MPSO | None = None,
     progress: bool = False,
     device: jax.Device | None = None,
 ) -> Diagnosis:
@@ -784,7 +784,8 @@ def diagnose(
        held-out data but matches no effect is reported as `unexplained`.
 
     `policy` holds the adoption rules (`AdoptionPolicy`; None: the family's
-    `default_policy()`). `device`: where the
+    `default_policy()`). `swarm`: the base fit's swarm (None: the family's
+    `base_swarm()`; unused when `base` is given). `device`: where the
     diagnosis runs; None: the host CPU when the default device is an accelerator
     (its refits and Jacobians integrate one trajectory at a time, which a CPU
     runs faster), else the default device.
@@ -800,6 +801,8 @@ def diagnose(
         )
     if policy is None:
         policy = family.default_policy()
+    if swarm is None:
+        swarm = family.base_swarm()
     if not isinstance(policy, AdoptionPolicy):
         raise TypeError(
             f"diagnose: policy must be an AdoptionPolicy, got {type(policy).__name__}."
@@ -831,7 +834,7 @@ def _diagnose(
     base: AbstractHysteresisModel | None,
     holdout_fraction: float,
     policy: AdoptionPolicy,
-    swarm: MPSO | None,
+    swarm: MPSO,
     progress: bool,
 ) -> Diagnosis:
     start_time = time.perf_counter()
