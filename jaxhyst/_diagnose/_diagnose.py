@@ -102,6 +102,16 @@ class _State(eqx.Module):
     def adopted(self) -> tuple[str, ...]:
         return tuple(f.effect for f in self.findings)
 
+    @property
+    def noise_model(self) -> NoiseModel:
+        """The latest round's noise model (every stage after the first score test)."""
+        if self.noise is None:
+            raise RuntimeError(
+                "diagnose: internal error, a stage ran before the first score test "
+                "estimated the noise; please report it."
+            )
+        return self.noise
+
 
 def _mse(residual: np.ndarray, mask) -> float:
     return float(np.mean(residual[mask] ** 2))
@@ -212,7 +222,7 @@ def _score_round(
     scores = []
     for effect in remaining:
         cols, perp = projected[effect.name]
-        params = [p for p in effect.parameters]
+        params = effect.parameters
         norms = np.linalg.norm(perp, axis=0)
         usable = norms > 1e-9 * (np.linalg.norm(cols, axis=0) + 1e-300)
         if not usable.any():
@@ -270,17 +280,17 @@ def _validate(
     """Held-out and fitted errors before and after, and the adoption rule: the
     held-out MSE drop must beat its own noise (its resolution) and the minimum
     gain, and the information criterion on the fitted samples must fall."""
-    assert state.noise is not None  # set by the round's score test
+    noise = state.noise_model
     residual, new_res = ctx.y - state.predicted, ctx.y - new_pred
     before_hold, after_hold = (
         _mse(residual, ctx.hold_mask),
         _mse(new_res, ctx.hold_mask),
     )
     before_fit, after_fit = _mse(residual, ctx.fit_mask), _mse(new_res, ctx.fit_mask)
-    n_eff_fit = state.noise.effective_ratio * ctx.fit_mask.sum()
+    n_eff_fit = noise.effective_ratio * ctx.fit_mask.sum()
     change = float(np.sqrt(np.mean((new_pred - state.predicted)[ctx.hold_mask] ** 2)))
     bound = math.sqrt(min(before_hold, after_hold)) if ctx.policy.noise_bound else None
-    resolution = state.noise.resolution(change, state.effective_heldout, bound=bound)
+    resolution = noise.resolution(change, state.effective_heldout, bound=bound)
     margin = max(ctx.policy.min_heldout_gain * before_hold, resolution)
     p = len(effect.parameters)
     bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(n_eff_fit)
@@ -420,7 +430,7 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
     explain it as well), then converge the model with it before looking further:
     an under-fitted winner leaves structure that would pass for a further effect."""
     family, policy = ctx.family, ctx.policy
-    assert state.noise is not None
+    noise = state.noise_model
     accepted = sorted(
         (t for t in trials if t.validation.accepted),
         key=lambda t: t.validation.heldout_rmse_after,
@@ -438,7 +448,7 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
         apart = float(
             np.sqrt(np.mean((other.predicted - winner.predicted)[ctx.hold_mask] ** 2))
         )
-        resolution = state.noise.resolution(apart, state.effective_heldout)
+        resolution = noise.resolution(apart, state.effective_heldout)
         overlap = max_canonical_correlation(
             winner.score.directions, other.score.directions
         )
@@ -459,7 +469,7 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
         _evidence(effect, winner.validation, where_now, winner.model),
         family.describe(where_now),
         float(winner.score.statistic),
-        {p: float(getattr(winner.model, p)) for p in effect.parameters},
+        effect.values(winner.model),
         error_metrics(ctx.y, state.predicted),
         error_metrics(ctx.y, winner.predicted),
         winner.validation,
@@ -575,7 +585,6 @@ def _backward(ctx: _Context, state: _State) -> _State:
     in (e.g. a rate dependence that was standing in for an input network)."""
     family = ctx.family
     while len(state.findings) >= 2:
-        assert state.noise is not None
         hold_now = _mse(ctx.y - state.predicted, ctx.hold_mask)
         weakest = None
         for finding in state.findings:
@@ -593,7 +602,7 @@ def _backward(ctx: _Context, state: _State) -> _State:
             )
             needed = max(
                 ctx.policy.min_heldout_gain * _mse(ctx.y - reduced_pred, ctx.hold_mask),
-                state.noise.resolution(change, state.effective_heldout),
+                state.noise_model.resolution(change, state.effective_heldout),
             )
             if loss < needed and (weakest is None or loss < weakest[1]):
                 weakest = (finding, loss, reduced, reduced_pred, names)
@@ -623,10 +632,8 @@ def _swaps(ctx: _Context, state: _State) -> _State:
     in the model, each runner-up of its round is tried in its place, and replaces it
     if it explains the held-out data better beyond the noise."""
     family = ctx.family
-    noise = state.noise
-    if noise is None:  # set by the first round's score test
-        return state
     for position in range(len(state.findings) - 1):
+        noise = state.noise_model
         finding = state.findings[position]
         adopted_effect = family.effect(finding.effect)
         others, where_then = state.runners_up.get(finding.effect, ([], {}))
@@ -685,7 +692,7 @@ def _swaps(ctx: _Context, state: _State) -> _State:
                 _evidence(alternative, other.validation, where_then, swapped),
                 family.describe(where_then),
                 float(other.score.statistic),
-                {p: float(getattr(swapped, p)) for p in alternative.parameters},
+                alternative.values(swapped),
                 finding.before,
                 error_metrics(ctx.y, other.predicted),
                 dataclasses.replace(other.validation, replaced=finding.effect),

@@ -57,11 +57,15 @@ class AbstractEffect(eqx.Module):
         then, and kept)."""
         return model.replace(**{p: 0.0 for p in self.gains})
 
+    def values(self, model: AbstractHysteresisModel) -> dict[str, float]:
+        """This effect's parameter values in `model`, by name."""
+        return {p: float(getattr(model, p)) for p in self.parameters}
+
     def take_from(
         self, model: AbstractHysteresisModel, source: AbstractHysteresisModel
     ) -> AbstractHysteresisModel:
         """`model` with this effect's parameters taken from `source`."""
-        return model.replace(**{p: float(getattr(source, p)) for p in self.parameters})
+        return model.replace(**self.values(source))
 
     def sensitivity_parameters(self, model: AbstractHysteresisModel) -> tuple[str, ...]:
         """The parameters whose output sensitivities the engine computes at
