@@ -140,11 +140,15 @@ from ._swarm import (
     run_swarm as run_swarm,
 )
 from ._synthetic import (
+    AbstractExcitation as AbstractExcitation,
     ConcealedCase as ConcealedCase,
     ConcealedTruth as ConcealedTruth,
+    SineExcitation as SineExcitation,
+    SwitchOnSine as SwitchOnSine,
     base_truth as base_truth,
     concealed_recording as concealed_recording,
     demo_recording as demo_recording,
+    practical_recording as practical_recording,
     rich_excitation as rich_excitation,
 )
 from ._synthetic_structural import (

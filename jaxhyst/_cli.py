@@ -215,6 +215,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text} must be finite")
+    return value
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -406,6 +416,20 @@ def _add_recording_options(parser) -> None:
         "time t = sample index (a quasi-static test; rate-independent models do not "
         "depend on it).",
     )
+    window = parser.add_argument_group("time window")
+    for option, compare, edge in (
+        ("start", ">=", "from the beginning"),
+        ("end", "<=", "to the end"),
+    ):
+        window.add_argument(
+            f"--{option}",
+            type=_finite_float,
+            default=None,
+            metavar="T",
+            help=f"analyse only the samples with t {compare} T (default: {edge} of "
+            "the record), in the recording's time unit, keeping its time stamps; "
+            "with --no-time, T is a sample index (the pseudo time).",
+        )
 
 
 def _quasi_static_column(text: str | None, index: int, option: str) -> int:
@@ -435,6 +459,58 @@ def _column(text: str | None, default: str, index: int, header: bool, option: st
 
 
 def _load_recording(args: argparse.Namespace) -> Recording:
+    """The recording named on the command line, cut to --start/--end."""
+    start, end = args.start, args.end
+    if start is not None and end is not None and not start < end:
+        raise ValueError(
+            f"--start {start:g} --end {end:g}: the window is empty; pass --start "
+            "below --end."
+        )
+    recording = _read_recording(args)
+    if start is None and end is None:
+        return recording
+    first, last = float(recording.t[0]), float(recording.t[-1])
+    span = f"the record runs from t = {first:g} to {last:g} {recording.time_unit}"
+    if start is not None and start >= last:
+        raise ValueError(
+            f"--start {start:g} is at or past the end of the record ({span}); pick "
+            f"--start below {last:g}."
+        )
+    if end is not None and end <= first:
+        raise ValueError(
+            f"--end {end:g} is at or before the start of the record ({span}); pick "
+            f"--end above {first:g}."
+        )
+    try:
+        return recording.segment(start, end)
+    except RecordingError as error:
+        raise ValueError(f"--start/--end: {_one_line(error)}") from None
+
+
+def _window(args: argparse.Namespace, recording: Recording) -> dict[str, object]:
+    """The "window" key of the JSON: --start/--end as given (None: not given)."""
+    return {"start": args.start, "end": args.end, "time_unit": recording.time_unit}
+
+
+def _window_line(args: argparse.Namespace, recording: Recording) -> str | None:
+    """The console line saying which part of the record is analysed."""
+    if args.start is None and args.end is None:
+        return None
+    first, last = float(recording.t[0]), float(recording.t[-1])
+    if recording.time_unit == "sample":
+        where = f"samples {first:g} to {last:g}"
+    else:
+        unit = f" {recording.time_unit}" if recording.time_unit else ""
+        where = f"t from {first:g} to {last:g}{unit}"
+    given = ", ".join(
+        f"--{name} {value:g}"
+        for name, value in (("start", args.start), ("end", args.end))
+        if value is not None
+    )
+    return f"window: {where} ({given}), {recording.num_samples} samples"
+
+
+def _read_recording(args: argparse.Namespace) -> Recording:
     if args.no_time:
         if args.time is not None:
             raise ValueError(
@@ -712,6 +788,9 @@ def _run_fit(args: argparse.Namespace) -> int:
         f"recording: {recording.name}, {recording.num_samples} samples at "
         f"{recording.sample_rate:g} Hz over {recording.duration:g} s"
     )
+    window = _window_line(args, recording)
+    if window is not None:
+        print(window)
     print(fit_summary(fit, recording))
     if stages is not None:
         print("stages:")
@@ -730,6 +809,7 @@ def _run_fit(args: argparse.Namespace) -> int:
             "output_unit": recording.output_unit,
         }
         data["command"] = {"model": args.model, "seed": args.seed}
+        data["window"] = _window(args, recording)
         if isinstance(fit.model, BoucWen):
             data.update(opensees_json(fit.model, recording))
         if stages is not None:
@@ -850,9 +930,14 @@ def _run_diagnose(args: argparse.Namespace) -> int:
         swarm=swarm,
         progress=True,
     )
+    window = _window_line(args, recording)
+    if window is not None:
+        print(window)
     print(diagnosis_summary(diagnosis, recording))
     if json_path is not None:
-        _write_json(diagnosis.to_dict(), json_path, args.force)
+        data = diagnosis.to_dict()
+        data["window"] = _window(args, recording)
+        _write_json(data, json_path, args.force)
     figures = {}
     if plots is not None:
         figures = write_diagnosis_figures(
@@ -935,7 +1020,11 @@ def _run_demo(args: argparse.Namespace) -> int:
         f"{recording.sample_rate:g} Hz over {recording.duration:g} s; u in "
         f"{recording.input_unit}, y in {unit}"
     )
-    print("step 1/2: identify the plain piezo model (swarm + polish)", flush=True)
+    print(
+        "step 1/2: fit the plain piezo model on all samples (swarm + polish; the "
+        "figures of the plain model, not the diagnosis's base)",
+        flush=True,
+    )
     fit = identify(
         PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
         recording,

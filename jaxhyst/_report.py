@@ -12,7 +12,10 @@ Shared by the `jaxhyst fit` / `diagnose` / `demo` commands and usable from noteb
 - `write_diagnosis_report(diagnosis, recording, path, figures)`: a Markdown report
   with a before/after table in the paper's Table 5/6 format (MAD, MRD, MAE, NRMSD),
   the findings with their evidence, location and validation, the ambiguities, and
-  relative links to the figures.
+  relative links to the figures, and what is left (`Diagnosis.remainder`).
+
+A diagnosis report quotes one base RMSE and one improvement: `rmse_change(diagnosis)`
+(the base model's RMSE on all samples -> the final model's, in percent).
 
 Figures need matplotlib (`pip install 'jaxhyst[plot]'`); like everything that writes
 files here, they refuse to replace existing files unless `overwrite=True`.
@@ -25,9 +28,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+import equinox as eqx
 import numpy as np
 
-from ._diagnose._results import Diagnosis
+from ._diagnose._results import RESOLVED_SIGMA, Advice, Diagnosis, Finding
 from ._identify import Fit
 from ._plots import (
     plot_error_trend,
@@ -180,6 +184,44 @@ def _base_label(diagnosis: Diagnosis) -> str:
     )
 
 
+def _change(first: float, last: float) -> str:
+    """The change from `first` to `last` in percent, as every table and summary
+    here shows it."""
+    if not first or not (math.isfinite(first) and math.isfinite(last)):
+        return "n/a"
+    return f"{100 * (last / first - 1):+.1f} %"
+
+
+class RmseChange(eqx.Module):
+    """The one improvement a diagnosis report quotes: the base model's RMSE on all
+    samples (the base model is fitted on the samples not held out) and the final
+    model's, and the change between them in percent."""
+
+    base: float
+    final: float
+
+    @property
+    def percent(self) -> float:
+        """100 * (final / base - 1); NaN when the base RMSE is zero."""
+        return 100 * (self.final / self.base - 1) if self.base else math.nan
+
+    @property
+    def percent_text(self) -> str:
+        """`percent` as shown, e.g. "-77.7 %"."""
+        return _change(self.base, self.final)
+
+
+def rmse_change(diagnosis: Diagnosis) -> RmseChange:
+    """The base -> final RMSE on all samples of `diagnosis`, quoted by every
+    report (summary, table, console)."""
+    return RmseChange(diagnosis.baseline["rmse"], diagnosis.final["rmse"])
+
+
+def _fitted_share(diagnosis: Diagnosis) -> str:
+    """The base model's fitting samples, e.g. "70 % of the samples"."""
+    return f"{100 * (1 - float(np.mean(diagnosis.heldout))):.0f} % of the samples"
+
+
 # ------------------------------------------------------------------------ figures
 
 
@@ -228,8 +270,8 @@ def write_fit_figures(
         recording.t,
         {name: np.abs(y - predicted)},
         ylabel=f"absolute error |y - yhat|{_bracket(unit)}",
-        title=f"{recording.name}: absolute error of {name} (RMSE "
-        f"{scale * fit.metrics['rmse']:.3g}{' ' + unit if unit else ''})",
+        title=f"{recording.name}: absolute error of {name} (RMSE on all samples "
+        f"{_number(scale * fit.metrics['rmse'])}{' ' + unit if unit else ''})",
         scale=scale,
         overwrite=overwrite,
     )
@@ -288,17 +330,18 @@ def write_diagnosis_figures(
         scale=scale,
         overwrite=overwrite,
     )
-    rmse = f"RMSE {scale * diagnosis.baseline['rmse']:.3g}"
+    change = rmse_change(diagnosis)
+    rmse = f"RMSE {_number(scale * change.base)}"
     errors = {f"{before_name} ({rmse})": np.abs(y - base)}
     if changed:
-        rmse = f"RMSE {scale * diagnosis.final['rmse']:.3g}"
+        rmse = f"RMSE {_number(scale * change.final)}, {change.percent_text}"
         errors[f"{after_name} ({rmse})"] = np.abs(y - final)
     plot_error_trend(
         paths["error_trend"],
         recording.t,
         errors,
         ylabel=f"absolute error |y - yhat|{_bracket(unit)}",
-        title=f"{recording.name}: absolute error before/after",
+        title=f"{recording.name}: absolute error before/after (RMSE on all samples)",
         scale=scale,
         overwrite=overwrite,
     )
@@ -374,12 +417,18 @@ def _number(value: float | None, digits: int = 4) -> str:
 
 
 def metrics_table(
-    rows: Mapping[str, Mapping[str, float]], unit: str, scale: float = 1.0
+    rows: Mapping[str, Mapping[str, float]],
+    unit: str,
+    scale: float = 1.0,
+    *,
+    reference: str | None = None,
+    change_label: str = "change, last vs first row",
 ) -> str:
     """A Markdown table in the paper's Table 5/6 format: one row per model
     ({label: error_metrics}), columns MAD [unit], MRD [%], MAE [unit], NRMSD, RMSE
-    [unit]; with two or more rows, a last row gives the change of the last model
-    relative to the first, in percent."""
+    [unit]; with two or more rows, a last row (`change_label`) gives the change of
+    the last model relative to the row labelled `reference` (default: the first),
+    in percent."""
     u = _bracket(unit)
     lines = [
         f"| model | MAD{u} | MRD [%] | MAE{u} | NRMSD | RMSE{u} |",
@@ -391,18 +440,17 @@ def metrics_table(
             f"{_number(scale * m['mae'])} | {_number(m['nrmsd'])} | "
             f"{_number(scale * m['rmse'])} |"
         )
-    if len(rows) >= 2:
-        first, last = list(rows.values())[0], list(rows.values())[-1]
-
-        def change(key):
-            if not first[key]:
-                return "n/a"
-            return f"{100 * (last[key] / first[key] - 1):+.1f} %"
-
-        keys = ("mad", "mrd", "mae", "nrmsd", "rmse")
-        lines.append(
-            f"| change, last vs first row | {' | '.join(change(k) for k in keys)} |"
+    if reference is not None and reference not in rows:
+        raise ValueError(
+            f"metrics_table: reference {reference!r} is not a row label; pass one of "
+            f"{', '.join(map(repr, rows))}, or None for the first row."
         )
+    if len(rows) >= 2:
+        first = rows[reference] if reference is not None else list(rows.values())[0]
+        last = list(rows.values())[-1]
+        keys = ("mad", "mrd", "mae", "nrmsd", "rmse")
+        changes = " | ".join(_change(first[k], last[k]) for k in keys)
+        lines.append(f"| {change_label} | {changes} |")
     return "\n".join(lines)
 
 
@@ -437,6 +485,80 @@ def _validation_lines(v: Mapping[str, Any], scale: float, unit: str) -> list[str
         f"score test {_number(v['score_statistic'], 4)} on {v['score_dof']} dof, "
         f"log10 p {_log10_p(v['log10_p'])}; {verdict}",
     ]
+
+
+def _remainder_lines(diagnosis: Diagnosis, scale: float, unit: str) -> list[str]:
+    """The "What is left" section: `Diagnosis.remainder`'s sentence and numbers."""
+    left = diagnosis.remainder
+    s = f" {unit}" if unit else ""
+    effective = (
+        f"{_number(left.effective_samples)} effective independent samples of "
+        f"{left.samples} ({_number(100 * left.effective_fraction, 3)} %)"
+    )
+    lines = [
+        left.text(scale, unit),
+        "",
+        f"- worst span: {left.span_text()}, max |residual| "
+        f"{_number(scale * left.span_max)}{s}",
+        f"- verdict: {left.verdict}; {effective}",
+    ]
+    if left.heldout_rms is not None:
+        lines.append(
+            f"- RMS on the held-out samples {_number(scale * left.heldout_rms)}{s}"
+        )
+    return lines
+
+
+def _final_parameters_text(finding: Finding) -> str:
+    parts = []
+    for name, final in finding.final_parameters.items():
+        error = finding.standard_errors.get(name, float("nan"))
+        unit = finding.units.get(name, "")
+        unit = "" if unit in ("", "1") else f" {unit}"
+        spread = f" ± {error:.2g}" if np.isfinite(error) else " (not determined)"
+        parts.append(
+            f"{name} = {finding.parameters[name]:.4g} -> {final:.4g}{spread}{unit}"
+        )
+    return "; ".join(parts)
+
+
+def _rivals_text(finding: Finding, scale: float, s: str) -> str:
+    if not finding.rivals:
+        return "none (no other effect passed held-out validation)."
+    parts = [
+        f"{r.effect} (held-out RMSE {_number(scale * r.heldout_rmse)}{s}, "
+        + (
+            f"lost by {r.margin_sigma:.1f} standard errors)"
+            if r.margin_sigma >= 0
+            else f"better by {-r.margin_sigma:.1f} standard errors)"
+        )
+        for r in finding.rivals
+    ]
+    verdict = (
+        "every rival lost beyond the resolution"
+        if finding.decided
+        else "the record cannot tell it from those within the resolution"
+    )
+    return "; ".join(parts) + f"; {verdict}."
+
+
+def _advice_text(advice: Advice) -> str:
+    names = " from ".join(advice.separates)
+    what = (
+        f"to tell {names}"
+        if len(advice.separates) > 1
+        else f"to tell whether {names} is present"
+    )
+    verdict = (
+        "would separate them"
+        if advice.difference_sigma >= RESOLVED_SIGMA
+        else "would still not separate them clearly; none of the tests tried does"
+    )
+    return (
+        f"{what}: {advice.input}. The fitted rival models differ there by "
+        f"{advice.difference_sigma:.1f} noise sigmas (RMS), against "
+        f"{advice.difference_sigma_here:.1f} on this record: it {verdict}."
+    )
 
 
 def _relative_link(target: Path, report: Path) -> str:
@@ -476,47 +598,65 @@ def diagnosis_markdown(
         "## Summary",
         "",
     ]
+    change = rmse_change(diagnosis)
     if diagnosis.findings:
         names = ", ".join(f"**{f.effect}**" for f in diagnosis.findings)
         out.append(
             f"The {_base_label(diagnosis)} leaves physics out of this "
-            f"recording. Adopted, in order: {names}. With them the RMSE over the "
-            f"whole record falls from {_number(scale * diagnosis.baseline['rmse'])} "
-            f"to {_number(scale * diagnosis.final['rmse'])}{s} "
-            f"({100 * (diagnosis.final['rmse'] / diagnosis.baseline['rmse'] - 1):+.0f}"
-            " %)."
+            f"recording. Adopted, in order: {names}. With them the RMSE on all "
+            f"samples falls from {_number(scale * change.base)} (base model) to "
+            f"{_number(scale * change.final)}{s} (final model), "
+            f"{change.percent_text}."
         )
     else:
         out.append(
             "No missing physics found: no catalogue effect both passes the score "
             "test and lowers the error on the held-out data by more than its noise. "
-            f"The base {diagnosis.base_name} model's RMSE is "
-            f"{_number(scale * diagnosis.baseline['rmse'])}"
-            f"{s}."
+            f"The base {diagnosis.base_name} model's RMSE on all samples is "
+            f"{_number(scale * change.base)}{s}."
         )
     held = float(np.mean(diagnosis.heldout))
     out += [
         "",
-        f"The base model was fitted on {100 * (1 - held):.0f} % of the record; the "
-        f"other {100 * held:.0f} %, {diagnosis.holdout_description}, is held out to judge every candidate. "
-        "The residual left at the end"
-        f" has RMS {_number(scale * diagnosis.noise_sigma)}{s}, lag-1 "
-        f"autocorrelation {_number(diagnosis.noise.get('lag1_autocorrelation'), 3)}.",
+        f"The base model was fitted on {_fitted_share(diagnosis)}; the other "
+        f"{100 * held:.0f} %, {diagnosis.holdout_description}, is held out to judge "
+        "every candidate. The residual left at the end has RMS "
+        f"{_number(scale * diagnosis.noise_sigma)}{s}, lag-1 autocorrelation "
+        f"{_number(diagnosis.noise.get('lag1_autocorrelation'), 3)}.",
         "",
         "## Error measures (Table 5/6 format)",
         "",
     ]
     rows: dict[str, Mapping[str, float]] = {}
     if fit is not None:
-        rows[f"plain {type(fit.model).__name__} fit (all samples)"] = fit.metrics
-    rows[f"base {diagnosis.base_name} model (diagnosis)"] = diagnosis.baseline
+        plain = f"plain {type(fit.model).__name__} fit on all samples (not the base)"
+        rows[plain] = fit.metrics
+    base_row = f"base {diagnosis.base_name} model (diagnosis)"
+    rows[base_row] = diagnosis.baseline
     if diagnosis.findings:
         rows[f"final {final_name}"] = diagnosis.final
-    out += [
-        metrics_table(rows, unit, scale),
-        "",
+    notes = (
         "MAD: maximum absolute deviation; MRD: MAD / max |y| in percent; MAE: mean "
-        "absolute error; NRMSD: RMSE / max |y| (eq. 15); all over every sample.",
+        "absolute error; NRMSD: RMSE / max |y| (eq. 15); all over every sample. The "
+        f"base model is the diagnosis's, fitted on {_fitted_share(diagnosis)}"
+    )
+    if diagnosis.findings:
+        notes += "; the change row compares the final model with it"
+    if fit is not None:
+        notes += (
+            "; the plain fit is a separate fit on every sample (the figures of the "
+            "plain model), not the diagnosis's base"
+        )
+    out += [
+        metrics_table(
+            rows,
+            unit,
+            scale,
+            reference=base_row,
+            change_label="change, final vs base",
+        ),
+        "",
+        notes + ".",
         "",
         "## Findings",
         "",
@@ -529,9 +669,17 @@ def diagnosis_markdown(
             "",
             f"- **Evidence:** {finding.evidence}",
             f"- **Where:** {finding.where}.",
-            f"- **Fitted parameters:** {_parameters_text(finding.parameters)}.",
+            f"- **Meaning:** {finding.meaning}.",
+            f"- **Reading (final model):** {finding.reading}.",
+            f"- **Parameters (at adoption -> final, ± standard error):** "
+            f"{_final_parameters_text(finding)}.",
+        ]
+        if finding.moved is not None:
+            out.append(f"- **Moved:** {finding.moved}")
+        out += [
             f"- **RMSE when adopted:** {_number(scale * finding.before['rmse'])} -> "
             f"{_number(scale * finding.after['rmse'])}{s} (all samples).",
+            f"- **Rivals:** {_rivals_text(finding, scale, s)}",
             "- **Validation:**",
         ]
         out += [
@@ -539,6 +687,20 @@ def diagnosis_markdown(
             for line in _validation_lines(finding.validation.to_dict(), scale, unit)
         ]
         out.append("")
+    out += ["## RMSE chain", ""]
+    out += [
+        "Every model the diagnosis moved to, in order (internal refits are rows of "
+        "their own):",
+        "",
+        f"| step | RMSE, all samples{_bracket(unit)} | RMSE, held out{_bracket(unit)} |",
+        "|---|---:|---:|",
+    ]
+    out += [
+        f"| {step.label} | {_number(scale * step.rmse)} | "
+        f"{_number(scale * step.heldout_rmse)} |"
+        for step in diagnosis.steps
+    ]
+    out.append("")
     out += ["## What the catalogue does not explain", ""]
     if diagnosis.unexplained:
         for item in diagnosis.unexplained:
@@ -554,12 +716,19 @@ def diagnosis_markdown(
     out.append("")
     out += ["## Ambiguities", ""]
     if diagnosis.ambiguities:
-        out += [f"- {text}" for text in diagnosis.ambiguities]
+        out += [f"- {a.statement}" for a in diagnosis.ambiguities]
     else:
-        out.append("None: no two candidates explained the mismatch equally well.")
+        out.append(
+            "None: every finding beat each rival that also passed validation by more "
+            "than this record resolves."
+        )
+    if diagnosis.advice:
+        out += ["", "## Tests that would decide", ""]
+        out += [f"- {_advice_text(a)}" for a in diagnosis.advice]
     out += ["", "## Final model", ""]
     final_parameters = diagnosis.to_dict()["final"]["parameters"]
     out += [f"`{final_name}`: {_parameters_text(final_parameters)}.", ""]
+    out += ["## What is left", "", *_remainder_lines(diagnosis, scale, unit), ""]
     if diagnosis.candidates:
         out += [
             "## Candidates scored",
@@ -681,7 +850,7 @@ def fit_summary(fit: Fit, recording: Recording) -> str:
         lines.append("  (± one standard error, from the Jacobian at the fit)")
     m = fit.metrics
     lines += [
-        "metrics:",
+        "metrics on all samples:",
         f"  RMSE   {scale * m['rmse']:.6g}{s}",
         f"  MAD    {scale * m['mad']:.6g}{s}",
         f"  MRD    {m['mrd']:.6g} %",
@@ -698,11 +867,12 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
     before/after, the ambiguities."""
     scale, unit, _, _ = _labels(recording)
     s = f" {unit}" if unit else ""
-    before, after = diagnosis.baseline["rmse"], diagnosis.final["rmse"]
+    change = rmse_change(diagnosis)
     lines = [
         f"recording: {recording.name}, {recording.num_samples} samples at "
         f"{recording.sample_rate:g} Hz; diagnosis took {diagnosis.seconds:.1f} s",
-        f"base model: {diagnosis.base_name}, RMSE {scale * before:.4g}{s}",
+        f"base model: {diagnosis.base_name}, fitted on {_fitted_share(diagnosis)}; "
+        f"RMSE on all samples {_number(scale * change.base)}{s}",
     ]
     if not diagnosis.findings:
         lines.append(
@@ -713,19 +883,25 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
         lines.append(f"findings ({len(diagnosis.findings)}):")
         for number, finding in enumerate(diagnosis.findings, start=1):
             lines += [
-                f"  {number}. {finding.effect}: {_parameters_text(finding.parameters)}",
+                f"  {number}. {finding.effect}: {finding.reading}",
                 f"     evidence: {finding.evidence}",
                 f"     where: {finding.where}",
+                f"     rivals: {_rivals_text(finding, scale, s)}",
             ]
+            if finding.moved is not None:
+                lines.append(f"     {finding.moved}")
         lines.append(
-            f"final model: {_final_label(diagnosis)}, RMSE {scale * after:.4g}{s} "
-            f"({100 * (after / before - 1):+.0f} % vs the base model)"
+            f"final model: {_final_label(diagnosis)}, RMSE on all samples "
+            f"{_number(scale * change.final)}{s} ({change.percent_text} vs the base "
+            "model)"
         )
     for item in diagnosis.unexplained:
         lines.append(f"unexplained: {item.description}; it resembles {item.resembles}")
     if diagnosis.ambiguities:
         lines.append("ambiguities:")
-        lines += [f"  - {text}" for text in diagnosis.ambiguities]
+        lines += [f"  - {a.statement}" for a in diagnosis.ambiguities]
     else:
         lines.append("ambiguities: none")
+    lines += [f"advice: {_advice_text(a)}" for a in diagnosis.advice]
+    lines.append(f"what is left: {diagnosis.remainder.text(scale, unit)}")
     return "\n".join(lines)

@@ -34,6 +34,7 @@ is linear in it, by a safeguarded secant search where it is not) until the RMS o
 (y with the effect - y without it) equals the requested number of noise sigmas.
 """
 
+import abc
 import math
 from collections.abc import Callable, Mapping
 from typing import ClassVar, NamedTuple
@@ -59,6 +60,7 @@ from ._signals import (
     Concatenate,
     Constant,
     DecayingCosine,
+    Multisine,
     RaisedCosine,
     StepHold,
     Triangle,
@@ -986,7 +988,13 @@ def _concealed_case(
     size_sigmas,
     name: str,
     owner: str,
+    *,
+    input_line: str | None = None,
+    note_shortfall: bool = False,
 ) -> ConcealedCase:
+    """The case for `effects` on `path`. `input_line`, if given, describes the input
+    as the first line of the truth description; with `note_shortfall` an effect that
+    stayed below 95 % of its requested size says so in its line."""
     effects, noise, sizes_wanted = _validate_arguments(
         effects, key, noise, size_sigmas, owner
     )
@@ -1018,7 +1026,13 @@ def _concealed_case(
         )
         components[field] = component
         sizes[effect] = reached / sigma
-        lines.append(f"{effect}: {what}; size {sizes[effect]:.3g} sigma")
+        line = f"{effect}: {what}; size {sizes[effect]:.3g} sigma"
+        if note_shortfall and reached < 0.95 * target:
+            line += (
+                f" (requested {sizes_wanted[effect]:.3g} sigma: this input does not "
+                "show more of it)"
+            )
+        lines.append(line)
 
     truth = ConcealedTruth(base, **components)
     y_true = _run(truth, path, solver) if effects else y_base
@@ -1045,12 +1059,13 @@ def _concealed_case(
         f"({sigma / np.ptp(y_base):.3%} of the output range)"
     )
     body = lines or ["no effects (clean recording)"]
+    first = [] if input_line is None else [input_line]
     return ConcealedCase(
         recording=recording,
         effects=effects,
         sigma=sigma,
         sizes=sizes,
-        truth_description="\n".join([head, *body, tail]),
+        truth_description="\n".join([*first, head, *body, tail]),
         truth=truth,
         base=base,
         noiseless=y_true,
@@ -1123,4 +1138,318 @@ def demo_recording(*, key: PRNGKeyArray | None = None) -> ConcealedCase:
         {"asymmetry": 8.0, "input_bias": 6.0},
         "demo-u2",
         "demo_recording",
+    )
+
+
+# ------------------------------------------------------ practical excitations
+
+_MIN_SAMPLES_PER_PERIOD = 20  # the fastest sine of a practical drive, at least
+
+
+def _check_level(owner: str, name: str, value) -> float:
+    """A finite number (volts)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)):
+        raise TypeError(f"{owner}: {name} must be a number (volts), got {value!r}.")
+    if not math.isfinite(value):
+        raise ValueError(f"{owner}({name}={value}): {name} must be finite (volts).")
+    return float(value)
+
+
+def _check_swing(owner: str, amplitude: float, offset: float) -> None:
+    """The drive offset +- amplitude stays in the stage's 0..100 V range."""
+    low, high = offset - amplitude, offset + amplitude
+    if low < 0.0 or high > _FULL_SCALE:
+        raise ValueError(
+            f"{owner}(amplitude={amplitude:g}, offset={offset:g}): the drive swings "
+            f"over {low:g}..{high:g} V, outside the piezo stage's unipolar "
+            f"0..{_FULL_SCALE:g} V; pass offset >= amplitude and offset + amplitude <= "
+            f"{_FULL_SCALE:g}, e.g. amplitude=50.0, offset=50.0."
+        )
+
+
+class AbstractExcitation(eqx.Module):
+    """A drive of the kind people record on a piezo stage: a sine or two at one
+    amplitude, perhaps after a hold at rest, rather than the `rich_excitation` an
+    identification experiment would be designed with.
+
+    `path(duration, rate)` samples it; `describe()` says what it is in words.
+    """
+
+    @abc.abstractmethod
+    def signal(self, duration: float) -> AbstractSignal:
+        """The drive over `duration` seconds (validated by `path`)."""
+
+    @abc.abstractmethod
+    def describe(self) -> str:
+        """One line: what the drive is."""
+
+    @property
+    @abc.abstractmethod
+    def highest_frequency(self) -> float:
+        """Hz: the fastest sine of the drive (the sampling rate must resolve it)."""
+
+    def path(self, duration: float, rate: float) -> InputPath:
+        """The drive sampled at `rate` Hz for `duration` seconds, in volts."""
+        owner = f"{type(self).__name__}.path"
+        _check_positive(owner, "duration", duration)
+        _check_positive(owner, "rate", rate)
+        fastest = self.highest_frequency
+        if rate < _MIN_SAMPLES_PER_PERIOD * fastest:
+            raise ValueError(
+                f"{owner}(rate={rate:g}): {rate:g} Hz samples the {fastest:g} Hz sine "
+                f"fewer than {_MIN_SAMPLES_PER_PERIOD} times a period; pass rate >= "
+                f"{_MIN_SAMPLES_PER_PERIOD * fastest:g}."
+            )
+        return sample(self.signal(float(duration)), float(rate))
+
+
+class SineExcitation(AbstractExcitation):
+    """One or more sines at one amplitude, summed or played in sequence, each starting
+    at rest at the trough `offset - amplitude` (the unipolar convention of
+    `RaisedCosine`; defaults 0..100 V):
+
+    - summed (`in_sequence=False`): u(t) = offset - (amplitude / k) * sum_i
+      cos(2 pi f_i t), k sines sharing the amplitude, so u stays within offset +-
+      amplitude; one frequency gives a plain sine;
+    - in sequence (`in_sequence=True`): each frequency in turn for an equal share of
+      the record, as many whole periods as fit (each ends at the trough, at rest),
+      then a hold at the trough for what is left.
+
+    A record of a few periods (`duration=5.0` at 1 Hz) is a short record.
+    """
+
+    frequencies: tuple[float, ...]
+    amplitude: float
+    offset: float
+    in_sequence: bool
+
+    def __init__(
+        self,
+        frequencies: float | tuple[float, ...] = (1.0,),
+        *,
+        amplitude: float = 50.0,
+        offset: float = 50.0,
+        in_sequence: bool = False,
+    ):
+        owner = "SineExcitation"
+        if isinstance(frequencies, (int, float, np.number)):
+            frequencies = (frequencies,)
+        if isinstance(frequencies, str) or not isinstance(frequencies, (tuple, list)):
+            raise TypeError(
+                f"{owner}: frequencies must be a tuple of frequencies in Hz, e.g. "
+                f"(1.0,) or (1.0, 5.0), got {frequencies!r}."
+            )
+        if not frequencies:
+            raise ValueError(
+                f"{owner}(frequencies=()): pass at least one frequency in Hz, e.g. "
+                "(1.0,)."
+            )
+        for f in frequencies:
+            _check_positive(owner, "frequencies", f)
+        if len(set(frequencies)) != len(frequencies):
+            raise ValueError(
+                f"{owner}(frequencies={tuple(frequencies)}): a frequency is repeated; "
+                "pass each once."
+            )
+        if not isinstance(in_sequence, bool):
+            raise TypeError(
+                f"{owner}: in_sequence must be True or False, got {in_sequence!r}."
+            )
+        _check_positive(owner, "amplitude", amplitude)
+        offset = _check_level(owner, "offset", offset)
+        _check_swing(owner, float(amplitude), offset)
+        self.frequencies = tuple(float(f) for f in frequencies)
+        self.amplitude = float(amplitude)
+        self.offset = offset
+        self.in_sequence = in_sequence
+
+    @property
+    def highest_frequency(self) -> float:
+        return max(self.frequencies)
+
+    def signal(self, duration: float) -> AbstractSignal:
+        owner = "SineExcitation"
+        k = len(self.frequencies)
+        trough = self.offset - self.amplitude
+        if not self.in_sequence:
+            slowest = min(self.frequencies)
+            if duration * slowest < 1 - 1e-9:
+                raise ValueError(
+                    f"{owner}: duration={duration:g} s is shorter than one period of "
+                    f"the slowest sine ({slowest:g} Hz); pass duration >= "
+                    f"{1 / slowest:g}."
+                )
+            return Multisine(
+                np.asarray(self.frequencies),
+                np.full(k, self.amplitude / k),
+                np.full(k, -math.pi / 2),
+                duration=duration,
+                offset=self.offset,
+            )
+        share = duration / k
+        parts: list[AbstractSignal] = []
+        for f in self.frequencies:
+            periods = math.floor(share * f + 1e-9)
+            if periods < 1:
+                need = k / min(self.frequencies)
+                raise ValueError(
+                    f"{owner}(in_sequence=True): duration={duration:g} s leaves "
+                    f"{share:g} s per frequency, less than one period of {f:g} Hz; "
+                    f"pass duration >= {need:g}."
+                )
+            parts.append(
+                RaisedCosine(self.amplitude, f, duration=periods / f, offset=trough)
+            )
+        left = duration - sum(part.duration for part in parts)
+        if left > 1e-9:
+            parts.append(Constant(trough, duration=left))
+        return Concatenate(parts)
+
+    def describe(self) -> str:
+        hz = [f"{f:g}" for f in self.frequencies]
+        if len(hz) == 1:
+            what = f"sine {hz[0]} Hz"
+        elif self.in_sequence:
+            what = f"sines {' then '.join(hz)} Hz in sequence"
+        else:
+            what = f"sum of sines {' + '.join(hz)} Hz"
+        low, high = self.offset - self.amplitude, self.offset + self.amplitude
+        return f"{what}, {low:g}..{high:g} V, from rest at {low:g} V"
+
+
+class SwitchOnSine(AbstractExcitation):
+    """A drive switched on during the record: a hold at `rest` for `hold` seconds,
+    a step to `offset` (a linear rise over `rise` seconds, as an amplifier slews),
+    then the sine u = offset + amplitude * sin(2 pi frequency t') from the step on.
+    Defaults: 0 V for 2 s, then a 1 Hz sine over 0..100 V starting upwards at 50 V.
+    """
+
+    frequency: float
+    hold: float
+    amplitude: float
+    offset: float
+    rest: float
+    rise: float
+
+    def __init__(
+        self,
+        frequency: float = 1.0,
+        *,
+        hold: float = 2.0,
+        amplitude: float = 50.0,
+        offset: float = 50.0,
+        rest: float = 0.0,
+        rise: float = 0.005,
+    ):
+        owner = "SwitchOnSine"
+        _check_positive(owner, "frequency", frequency)
+        _check_positive(owner, "hold", hold)
+        _check_positive(owner, "amplitude", amplitude)
+        _check_positive(owner, "rise", rise)
+        offset = _check_level(owner, "offset", offset)
+        rest = _check_level(owner, "rest", rest)
+        _check_swing(owner, float(amplitude), offset)
+        if not 0.0 <= rest <= _FULL_SCALE:
+            raise ValueError(
+                f"{owner}(rest={rest:g}): the rest level must lie in the stage's "
+                f"0..{_FULL_SCALE:g} V; pass e.g. rest=0.0."
+            )
+        self.frequency = float(frequency)
+        self.hold = float(hold)
+        self.amplitude = float(amplitude)
+        self.offset = offset
+        self.rest = rest
+        self.rise = float(rise)
+
+    @property
+    def highest_frequency(self) -> float:
+        return self.frequency
+
+    def signal(self, duration: float) -> AbstractSignal:
+        running = duration - self.hold - self.rise
+        if running * self.frequency < 1 - 1e-9:
+            need = self.hold + self.rise + 1 / self.frequency
+            raise ValueError(
+                f"SwitchOnSine: duration={duration:g} s leaves less than one period "
+                f"of the {self.frequency:g} Hz sine after the {self.hold:g} s hold; "
+                f"pass duration >= {need:g} (or a shorter hold)."
+            )
+        return Concatenate(
+            [
+                Constant(self.rest, duration=self.hold),
+                StepHold(
+                    np.array([self.rest, self.offset]),
+                    hold_time=0.0,
+                    ramp_time=self.rise,
+                ),
+                Multisine(
+                    np.array([self.frequency]),
+                    np.array([self.amplitude]),
+                    np.zeros(1),
+                    duration=running,
+                    offset=self.offset,
+                ),
+            ]
+        )
+
+    def describe(self) -> str:
+        low, high = self.offset - self.amplitude, self.offset + self.amplitude
+        return (
+            f"hold at {self.rest:g} V for {self.hold:g} s, step to {self.offset:g} V "
+            f"in {self.rise * 1e3:g} ms, then sine {self.frequency:g} Hz over "
+            f"{low:g}..{high:g} V"
+        )
+
+
+def practical_recording(
+    effects: tuple[str, ...],
+    *,
+    key: PRNGKeyArray,
+    excitation: AbstractExcitation,
+    duration: float = 20.0,
+    rate: float = 1000.0,
+    noise: str = "white",
+    size_sigmas: float | Mapping[str, float] | None = None,
+) -> ConcealedCase:
+    """A recording like the ones people have: the paper-like piezo stage of
+    `concealed_recording` under a plain drive, `excitation` (a `SineExcitation` of one
+    or two sines, a `SwitchOnSine`; a short `duration` for a short record), sampled
+    at `rate` Hz for `duration` seconds, concealing `effects` under sensor noise.
+
+    Effects, sizes and noise follow `concealed_recording` exactly (the same truth
+    forms, sizing and noise kinds; `size_sigmas` None draws each size from [3, 10]
+    noise sigmas). Everything random follows from `key`; the input is fixed by
+    `excitation`, so the same key with different effects gives the same input, base
+    and noise, and records differ only by the effects.
+
+    A plain drive shows some effects little: `sizes` reports what was reached, and
+    the truth description says when an effect stayed below 95 % of its requested size
+    (a stage mode, never shown with a participation above 1, on a slow sine).
+    On such records some effects also look alike (a delay of the drive, a rate
+    dependence and creep on one sine), which is the point of these records.
+    """
+    owner = "practical_recording"
+    if not isinstance(excitation, AbstractExcitation):
+        raise TypeError(
+            f"{owner}: excitation must be an excitation object, e.g. "
+            "SineExcitation((1.0,)), SineExcitation((1.0, 5.0)) or SwitchOnSine(1.0), "
+            f"got {type(excitation).__name__}."
+        )
+    _check_positive(owner, "duration", duration)
+    _check_positive(owner, "rate", rate)
+    effects, noise, _ = _validate_arguments(effects, key, noise, size_sigmas, owner)
+    path = excitation.path(duration, rate)
+    label = "+".join(effects) if effects else "clean"
+    return _concealed_case(
+        path,
+        effects,
+        key,
+        noise,
+        size_sigmas,
+        f"practical-{label}-{noise}",
+        owner,
+        input_line=(
+            f"input: {excitation.describe()}; {float(duration):g} s at {float(rate):g} Hz"
+        ),
+        note_shortfall=True,
     )

@@ -329,6 +329,10 @@ def test_fit_writes_json_figures_and_summary(fitted):
     for word in ("parameters:", "k1", "RMSE", "MAD", "MRD", "MAE", "NRMSD", "timing:"):
         assert word in stdout
     assert f"wrote {out / 'fit.json'}" in stdout
+    # Without --start/--end: the whole record, and the JSON says so.
+    assert data["recording"]["samples"] == 2001
+    assert data["window"] == {"start": None, "end": None, "time_unit": "s"}
+    assert "window:" not in stdout
 
 
 def test_fit_refuses_to_overwrite_without_force(fitted, short_recording, capsys):
@@ -432,8 +436,15 @@ def test_diagnose_clean_recording_writes_the_contract(diagnosed):
     assert data["final"]["model"].startswith("piezo")
     assert isinstance(data["ambiguities"], list)
     assert data["findings"] == []  # a clean record: nothing may be flagged
-    assert "findings: none" in stdout and "base model: piezo, RMSE" in stdout
+    assert "findings: none" in stdout and "base model: piezo, fitted on" in stdout
+    assert "RMSE on all samples" in stdout
     assert f"wrote {out / 'report.md'}" in stdout
+    assert data["window"] == {"start": None, "end": None, "time_unit": "s"}
+    assert "window:" not in stdout
+    assert data["remainder"]["verdict"] in ("noise-like", "structured")
+    # The console shows the JSON's sentence in display units (um as µm).
+    sentence = data["remainder"]["sentence"].replace(" um", " µm")
+    assert "what is left: " + sentence in stdout
 
 
 def test_diagnose_report_and_figures(diagnosed):
@@ -442,6 +453,7 @@ def test_diagnose_report_and_figures(diagnosed):
     assert "| model | MAD [µm] | MRD [%] | MAE [µm] | NRMSD | RMSE [µm] |" in text
     assert "| base piezo model (diagnosis) |" in text
     assert "## Findings" in text and "## Ambiguities" in text
+    assert "## What is left" in text
     for name in (
         "loop_before_after",
         "error_trend_before_after",
@@ -452,6 +464,84 @@ def test_diagnose_report_and_figures(diagnosed):
     ):
         assert f"](figures/{name}.png)" in text
         assert (out / "figures" / f"{name}.png").read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_fit_window_cuts_the_record(short_recording, tmp_path, capsys):
+    out = tmp_path / "fit.json"
+    argv = ["fit", str(short_recording), "--start", "2", "--end", "6", "--json"]
+    assert main([*argv, str(out), "--particles", "8", "--iterations", "3"]) == 0
+    data = _strict_json(out)
+    assert data["recording"]["samples"] == 1001  # 4 s at 250 Hz
+    assert data["window"] == {"start": 2.0, "end": 6.0, "time_unit": "s"}
+    stdout = capsys.readouterr().out
+    assert "1001 samples at 250 Hz over 4 s" in stdout
+    assert "window: t from 2 to 6 s (--start 2, --end 6), 1001 samples" in stdout
+    # One side only: from 6 s to the end.
+    argv = ["fit", str(short_recording), "--start", "6", "--force", "--json"]
+    assert main([*argv, str(out), "--particles", "8", "--iterations", "3"]) == 0
+    data = _strict_json(out)
+    assert data["recording"]["samples"] == 501
+    assert data["window"] == {"start": 6.0, "end": None, "time_unit": "s"}
+
+
+def test_diagnose_analyses_the_window(short_recording, monkeypatch, capsys):
+    """diagnose gets the cut recording, with its original time stamps (the
+    diagnosis itself is replaced by a stub: the window is all that is tested)."""
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def stub(recording, **kwargs):
+        seen.append(recording)
+        raise Stop
+
+    monkeypatch.setattr("jaxhyst._cli.diagnose", stub)
+    with pytest.raises(Stop):
+        main(["diagnose", str(short_recording), "--start", "1.5", "--end", "7"])
+    (recording,) = seen
+    assert recording.num_samples == 1376  # 5.5 s at 250 Hz
+    assert recording.t[0] == pytest.approx(1.5) and recording.t[-1] == pytest.approx(7)
+    full = jh.Recording.load(short_recording)
+    np.testing.assert_array_equal(recording.y, full.y[375:1751])
+    seen.clear()
+    with pytest.raises(Stop):
+        main(["diagnose", str(short_recording)])
+    assert seen[0].num_samples == 2001
+
+
+@pytest.mark.parametrize(
+    "window, expected",
+    [
+        (["--start", "5", "--end", "3"], "--start 5 --end 3: the window is empty"),
+        (["--start", "2", "--end", "2"], "pass --start below --end"),
+        (["--start", "9"], "--start 9 is at or past the end of the record"),
+        (["--end", "-1"], "--end -1 is at or before the start of the record"),
+        (["--start", "1", "--end", "1.001"], "holds 1 sample(s)"),
+        (["--start", "nan"], "--start: nan must be finite"),
+        (["--end", "soon"], "--end: 'soon' is not a number"),
+    ],
+)
+@pytest.mark.parametrize("command", ["fit", "diagnose"])
+def test_bad_windows_are_one_line_errors(
+    command, window, expected, short_recording, tmp_path, capsys
+):
+    out = tmp_path / "out.json"
+    argv = [command, str(short_recording), *window, "--json", str(out), *QUICK]
+    assert main(argv) == 2
+    line = _one_error_line(capsys, quiet=True)
+    assert expected in line
+    if "past the end" in expected or "before the start" in expected:
+        assert "the record runs from t = 0 to 8 s" in line
+    assert not out.exists()
+
+
+def test_window_help_says_samples_for_quasi_static_records(capsys):
+    for command in ("fit", "diagnose"):
+        assert main([command, "--help"]) == 0
+        text = " ".join(capsys.readouterr().out.split())
+        assert "--start T" in text and "--end T" in text
+        assert "with --no-time, T is a sample index" in text
 
 
 def test_diagnose_refuses_to_overwrite(diagnosed, short_recording, capsys):
@@ -580,6 +670,18 @@ class TestNoTime:
         assert main([*argv, "--model", "bouc-wen", *QUICK]) == 2
         assert expected in _one_error_line(capsys, quiet=True)
         assert not out.exists()
+
+    def test_window_is_in_samples(self, two_columns, tmp_path, capsys):
+        path, _, force = two_columns
+        out = tmp_path / "fit.json"
+        argv = ["fit", str(path), "--no-time", "--model", "bouc-wen", "--start"]
+        argv += ["40", "--end", "120", "--particles", "8", "--iterations", "3"]
+        assert main([*argv, "--json", str(out)]) == 0
+        data = _strict_json(out)
+        assert data["recording"]["samples"] == 81  # samples 40 to 120
+        assert data["window"] == {"start": 40.0, "end": 120.0, "time_unit": "sample"}
+        stdout = capsys.readouterr().out
+        assert "window: samples 40 to 120 (--start 40, --end 120), 81 samples" in stdout
 
     def test_help_describes_the_option(self, capsys):
         assert main(["fit", "--help"]) == 0

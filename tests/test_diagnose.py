@@ -116,9 +116,9 @@ def test_near_miss_overlapping_an_adopted_effect_is_reported():
     near = [result("drift", 1.03)]  # 4 % gain: beyond its noise, under 5 %
     messages = standing_in(near, projected, adopted)
     assert len(messages) == 1
-    assert (
-        messages[0].startswith("drift may also be present") and "creep" in messages[0]
-    )
+    statement = messages[0].statement
+    assert statement.startswith("drift may also be present") and "creep" in statement
+    assert messages[0].undecided == ("drift",)
     # Not reported: a gain within the noise, a worse BIC, an accepted candidate,
     # or a signature unlike any adopted effect's.
     assert (
@@ -164,3 +164,16 @@ def test_a_large_concealed_effect_is_named_on_a_short_record():
     report = diagnosis.to_dict()
     assert report["final"]["model"] == "piezo+drift"
     assert report["unexplained"] == []
+    # The RMSE chain adds up: it starts at the baseline, every finding's before and
+    # after are consecutive rows, and it ends at the final model.
+    chain = [step.rmse for step in diagnosis.steps]
+    assert chain[0] == pytest.approx(diagnosis.baseline["rmse"])
+    assert chain[-1] == pytest.approx(diagnosis.final_rmse)
+    i = chain.index(pytest.approx(finding.before["rmse"]))
+    assert chain[i + 1] == pytest.approx(finding.after["rmse"])
+    # Units, standard errors and final values, keyed like the parameters.
+    assert set(finding.units) == set(finding.standard_errors) == set(finding.parameters)
+    assert set(finding.final_parameters) == set(finding.parameters)
+    assert all(unit for unit in finding.units.values()) and finding.reading
+    for name, value in finding.final_parameters.items():
+        assert report["final"]["parameters"][name] == value

@@ -14,14 +14,18 @@ import pytest
 
 import jaxhyst as jh
 from jaxhyst import PiezoFamily
+from jaxhyst._diagnose._remainder import remainder
+from jaxhyst._diagnose._results import Advice, Ambiguity, Rival, Step
 from jaxhyst._models.extended import ExtendedPiezo
 from jaxhyst._report import (
     DIAGNOSIS_FIGURES,
     FIT_FIGURES,
+    diagnosis_markdown,
     diagnosis_summary,
     fit_summary,
     jsonable,
     metrics_table,
+    rmse_change,
     write_diagnosis_figures,
     write_diagnosis_report,
     write_fit_figures,
@@ -82,6 +86,12 @@ def diagnosis(recording):
         before=baseline,
         after=final,
         validation=validation,
+        rivals=(Rival("rate_dependence", 0.0021, 1.5),),
+        final_parameters={"eps": 0.012, "quad": 0.0},
+        standard_errors={"eps": 0.001, "quad": float("nan")},
+        units={"eps": "1/(V·s)", "quad": "µm"},
+        meaning="made-up meaning",
+        reading="made-up reading of eps",
     )
     directions = np.zeros((y.size, 1))
     rounds = [
@@ -112,6 +122,7 @@ def diagnosis(recording):
             ),
         ]
     ]
+    heldout = ~PiezoFamily().holdout(recording, 0.3)
     return jh.Diagnosis(
         recording=recording.name,
         samples=recording.num_samples,
@@ -124,18 +135,28 @@ def diagnosis(recording):
         findings=[finding],
         unexplained=[],
         rounds=rounds,
-        ambiguities=[AMBIGUITY + "; both explain the mismatch equally."],
+        ambiguities=[
+            Ambiguity(
+                AMBIGUITY + "; both explain the mismatch equally.", ("asymmetry",)
+            )
+        ],
+        advice=[Advice(("asymmetry", "rate_dependence"), "a made-up test", 6.5, 0.8)],
+        steps=[
+            Step("piezo fitted", baseline["rmse"], 0.01),
+            Step("asymmetry added (refit on the fitted samples)", final["rmse"], 0.002),
+        ],
         noise_sigma=2e-3,
         noise={"sigma": 2e-3, "lag1_autocorrelation": 0.01, "effective_samples": 500.0},
         location={"overall_rms": 0.01, "holding": {"mean": float("nan")}},
         base_predicted=base_predicted,
         final_predicted=final_predicted,
-        heldout=~PiezoFamily().holdout(recording, 0.3),
+        heldout=heldout,
         holdout_description=PiezoFamily.holdout_description,
         holdout_fraction=0.3,
         final_parameters={"k1": 1.0, "eps": 0.01},
         exports={},
         seconds=1.5,
+        remainder=remainder(recording, y - final_predicted, heldout=heldout),
     )
 
 
@@ -183,14 +204,20 @@ def test_report_has_the_table_findings_ambiguities_and_links(
     mad = float(rows[0].split("|")[2])
     assert mad == pytest.approx(1e6 * diagnosis.baseline["mad"], rel=1e-3)
     assert "| final piezo+asymmetry |" in text
-    assert "| change, last vs first row |" in text
+    assert "| change, final vs base |" in text
     # The finding, with its evidence, location and validation; the ambiguity.
     assert "### 1. asymmetry" in text
     assert "made-up evidence" in text
     assert "on the ascending branch" in text
     assert "held-out RMSE 1e+04 -> 2000 µm" in text
-    assert "accepted" in text and "eps = 0.01" in text
+    assert "accepted" in text and "eps = 0.01 -> 0.012 ± 0.001 1/(V·s)" in text
+    assert "quad = 0 -> 0 (not determined) µm" in text
+    assert "**Reading (final model):** made-up reading of eps." in text
+    assert "**Meaning:** made-up meaning." in text
     assert AMBIGUITY in text
+    # The RMSE chain (one row per model moved to) and the advice.
+    assert f"| piezo fitted | {1e6 * diagnosis.baseline['rmse']:.4g} | 1e+04 |" in text
+    assert "## Tests that would decide" in text and "a made-up test" in text
     # Every figure is linked relative to the report, and the link resolves.
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
     assert len(links) == len(DIAGNOSIS_FIGURES)
@@ -272,7 +299,94 @@ def test_fit_figures_and_summary(recording, tmp_path):
 
 def test_diagnosis_summary(diagnosis, recording):
     summary = diagnosis_summary(diagnosis, recording)
-    assert "1. asymmetry: eps = 0.01" in summary
+    assert "1. asymmetry: made-up reading of eps" in summary
+    assert "rivals: rate_dependence (held-out RMSE" in summary
+    assert "lost by 1.5 standard errors" in summary and "cannot tell" in summary
+    assert "advice: to tell asymmetry from rate_dependence: a made-up test" in summary
+    assert "6.5 noise sigmas" in summary and "would separate them" in summary
     assert "evidence: the branches differ" in summary
     assert "final model: piezo+asymmetry" in summary
     assert AMBIGUITY in summary
+
+
+@pytest.fixture(scope="module")
+def plain_fit(recording):
+    """A plain fit on all samples whose RMSE differs from the diagnosis's base (as
+    the demo's does): the truth with k1 off by 5 %, not polished."""
+    return jh.identify(
+        jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
+        recording,
+        key=jax.random.key(0),
+        swarm=None,
+        polish=None,
+        start=TRUTH.replace(k1=0.315),
+        gauge=False,
+        analyse=False,
+    )
+
+
+def _percents(text: str) -> list[str]:
+    return re.findall(r"[+-]\d+(?:\.\d+)? %", text)
+
+
+def test_one_base_rmse_and_one_improvement_per_report(
+    diagnosis, recording, plain_fit, tmp_path
+):
+    """The summary sentence, the table's change row and the console quote the same
+    base RMSE and the same percentage, even with a plain fit of another RMSE in
+    the table (the demo's layout)."""
+    assert plain_fit.metrics["rmse"] != pytest.approx(diagnosis.baseline["rmse"])
+    change = rmse_change(diagnosis)
+    assert change.base == diagnosis.baseline["rmse"]
+    assert change.percent == pytest.approx(
+        100 * (diagnosis.final["rmse"] / diagnosis.baseline["rmse"] - 1)
+    )
+    text = diagnosis_markdown(
+        diagnosis, recording, tmp_path / "report.md", {}, fit=plain_fit
+    )
+    console = diagnosis_summary(diagnosis, recording)
+    base = f"{1e6 * change.base:.4g}"
+
+    # Every RMSE change quoted in prose, and the table's RMSE change.
+    prose = [
+        line
+        for line in (*text.splitlines(), *console.splitlines())
+        if "RMSE" in line and not line.startswith("|") and "held-out" not in line
+    ]
+    quoted = [p for line in prose for p in _percents(line)]
+    rows = [line.split("|") for line in text.splitlines() if line.startswith("|")]
+    change_row = [cells for cells in rows if cells[1].strip().startswith("change")]
+    assert len(change_row) == 1
+    quoted.append(change_row[0][-2].strip())  # the RMSE column
+    assert len(quoted) >= 3, quoted
+    assert set(quoted) == {change.percent_text}, quoted
+
+    # Every base RMSE: the summary sentence, the base row, the console.
+    (sentence,) = [line for line in text.splitlines() if "falls from" in line]
+    from_base = re.search(r"falls from (\S+) \(base model\)", sentence)
+    assert from_base is not None, sentence
+    base_rows = [cells for cells in rows if cells[1].strip().startswith("base")]
+    assert len(base_rows) == 1, [cells[1] for cells in rows]
+    (console_base,) = [
+        line for line in console.splitlines() if line.startswith("base model")
+    ]
+    found = {
+        from_base.group(1),
+        base_rows[0][-2].strip(),
+        re.search(r"RMSE on all samples (\S+)", console_base).group(1),
+    }
+    assert found == {base}, found
+    # The plain fit keeps its row, labelled as another model.
+    assert "| plain PiezoBoucWen fit on all samples (not the base) |" in text
+
+
+def test_report_and_summary_say_what_is_left(diagnosis, recording, tmp_path):
+    left = diagnosis.remainder
+    text = diagnosis_markdown(diagnosis, recording, tmp_path / "report.md", {})
+    section = text.split("## What is left", 1)[1]
+    assert left.text(1e6, "µm") in section
+    assert f"verdict: {left.verdict}" in section
+    assert "what is left: " + left.text(1e6, "µm") in diagnosis_summary(
+        diagnosis, recording
+    )
+    assert diagnosis.to_dict()["remainder"]["verdict"] == left.verdict

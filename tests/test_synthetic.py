@@ -1,3 +1,6 @@
+import importlib
+from pathlib import Path
+
 import jax
 import numpy as np
 import pytest
@@ -180,3 +183,172 @@ def test_demo_recording_is_fixed_by_default():
     assert demo.sizes["input_bias"] == pytest.approx(6.0, rel=0.1)
     again = jh.demo_recording(key=jax.random.key(2024))
     np.testing.assert_array_equal(r.y, again.recording.y)
+
+
+# ------------------------------------------------------------ practical records
+
+SHORT, SLOW_RATE = 5.0, 200.0
+
+
+def _spectrum_peaks(u, rate, count):
+    """The `count` strongest frequencies (Hz) of u minus its mean, strongest first."""
+    u = np.asarray(u)[:-1]  # whole periods: drop the closing sample
+    magnitude = np.abs(np.fft.rfft(u - u.mean()))
+    freqs = np.fft.rfftfreq(u.size, 1 / rate)
+    return [float(freqs[i]) for i in np.argsort(magnitude)[::-1][:count]], magnitude
+
+
+def test_sine_excitation_is_one_sine_from_rest():
+    path = jh.SineExcitation((1.0,)).path(SHORT, SLOW_RATE)
+    u = np.asarray(path.values)
+    assert path.num_samples == round(SHORT * SLOW_RATE) + 1
+    assert float(path.t1 - path.t0) == pytest.approx(SHORT)
+    assert u[0] == pytest.approx(0.0, abs=1e-12)  # at rest at the trough
+    assert u.min() >= -1e-9 and u.max() == pytest.approx(100.0)
+    peaks, _ = _spectrum_peaks(u, SLOW_RATE, 1)
+    assert peaks == [pytest.approx(1.0)]
+
+
+def test_two_sines_summed_share_the_amplitude():
+    path = jh.SineExcitation((1.0, 5.0), amplitude=40.0, offset=50.0).path(
+        SHORT, SLOW_RATE
+    )
+    u = np.asarray(path.values)
+    assert u.min() >= 10.0 - 1e-9 and u.max() <= 90.0 + 1e-9
+    peaks, magnitude = _spectrum_peaks(u, SLOW_RATE, 2)
+    assert sorted(peaks) == [pytest.approx(1.0), pytest.approx(5.0)]
+    at = lambda f: magnitude[round(f * SHORT)]
+    assert at(1.0) == pytest.approx(at(5.0), rel=1e-6)  # one amplitude
+
+
+def test_sines_in_sequence_play_one_after_the_other():
+    duration = 8.0
+    u = np.asarray(
+        jh.SineExcitation((0.5, 2.0), in_sequence=True).path(duration, SLOW_RATE).values
+    )
+    half = round(duration / 2 * SLOW_RATE)
+    first, _ = _spectrum_peaks(u[: half + 1], SLOW_RATE, 1)
+    second, _ = _spectrum_peaks(u[half:], SLOW_RATE, 1)
+    assert first == [pytest.approx(0.5)] and second == [pytest.approx(2.0)]
+    assert u[half] == pytest.approx(0.0, abs=1e-9)  # each part ends at rest
+
+
+def test_switch_on_sine_holds_then_steps_into_the_sine():
+    drive = jh.SwitchOnSine(1.0, hold=1.5, rest=0.0, offset=50.0, amplitude=40.0)
+    path = drive.path(SHORT + 1.5, SLOW_RATE)
+    t, u = np.asarray(path.times), np.asarray(path.values)
+    assert float(path.t1) == pytest.approx(SHORT + 1.5)
+    held = t <= 1.5
+    assert np.all(u[held] == 0.0)  # flat at rest before the switch-on
+    running = t >= 1.5 + drive.rise
+    np.testing.assert_allclose(
+        u[running],
+        50.0 + 40.0 * np.sin(2 * np.pi * (t[running] - 1.5 - drive.rise)),
+        atol=1e-9,
+    )
+    assert u.max() <= 90.0 + 1e-9
+
+
+def test_practical_recording_shares_input_base_and_noise():
+    drive = jh.SineExcitation((1.0,))
+    make = lambda effects: jh.practical_recording(
+        effects,
+        key=jax.random.key(4),
+        excitation=drive,
+        duration=SHORT,
+        rate=SLOW_RATE,
+        size_sigmas=5.0,
+    )
+    clean, creep = make(()), make(("creep",))
+    assert creep.effects == ("creep",)
+    np.testing.assert_array_equal(creep.recording.u, clean.recording.u)
+    np.testing.assert_array_equal(
+        creep.recording.u, drive.path(SHORT, SLOW_RATE).values
+    )
+    assert creep.base == clean.base and creep.sigma == clean.sigma
+    np.testing.assert_allclose(
+        creep.recording.y - creep.noiseless, clean.recording.y - clean.noiseless
+    )
+    change = _rms(creep.noiseless - clean.noiseless) / creep.sigma
+    assert change == pytest.approx(5.0, rel=0.1)
+    assert creep.sizes["creep"] == pytest.approx(5.0, rel=0.1)
+    assert creep.truth_description.startswith("input: sine 1 Hz")
+
+
+def test_practical_recording_reports_a_size_the_input_cannot_show():
+    # A stage mode is never shown with a participation above 1: on a slow sine it
+    # cannot reach 1000 sigma, and the description says so.
+    case = jh.practical_recording(
+        ("dynamics",),
+        key=jax.random.key(0),
+        excitation=jh.SineExcitation((0.5,)),
+        duration=4.0,
+        rate=SLOW_RATE,
+        size_sigmas=1000.0,
+    )
+    assert case.sizes["dynamics"] < 500.0
+    assert "requested 1e+03 sigma: this input does not show more" in (
+        case.truth_description
+    )
+
+
+def test_practical_arguments_are_rejected_clearly():
+    key = jax.random.key(0)
+    drive = jh.SineExcitation((1.0,))
+    with pytest.raises(TypeError, match="excitation must be an excitation object"):
+        jh.practical_recording((), key=key, excitation="sine")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="valid names are"):
+        jh.practical_recording(("hum",), key=key, excitation=drive)
+    with pytest.raises(ValueError, match="duration"):
+        jh.practical_recording((), key=key, excitation=drive, duration=-1.0)
+    with pytest.raises(ValueError, match="noise must be one of"):
+        jh.practical_recording((), key=key, excitation=drive, noise="pink")
+    with pytest.raises(ValueError, match="pass duration >= 2"):
+        jh.SineExcitation((0.5,)).path(1.0, SLOW_RATE)
+    with pytest.raises(ValueError, match="pass duration >= 4"):
+        jh.SineExcitation((0.5, 2.0), in_sequence=True).path(3.0, SLOW_RATE)
+    with pytest.raises(ValueError, match="pass duration >= 3"):
+        jh.SwitchOnSine(1.0, hold=2.0, rise=0.5).path(3.0, SLOW_RATE)
+    with pytest.raises(ValueError, match="pass rate >= 100"):
+        jh.SineExcitation((1.0, 5.0)).path(SHORT, 50.0)
+    with pytest.raises(TypeError, match="tuple of frequencies"):
+        jh.SineExcitation("1 Hz")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="at least one frequency"):
+        jh.SineExcitation(())
+    with pytest.raises(ValueError, match="repeated"):
+        jh.SineExcitation((1.0, 1.0))
+    with pytest.raises(ValueError, match="frequencies must be positive"):
+        jh.SineExcitation((-1.0,))
+    with pytest.raises(ValueError, match="unipolar 0..100 V"):
+        jh.SineExcitation((1.0,), amplitude=50.0, offset=40.0)
+    with pytest.raises(ValueError, match="rest level"):
+        jh.SwitchOnSine(1.0, rest=-5.0)
+    with pytest.raises(ValueError, match="hold must be positive"):
+        jh.SwitchOnSine(1.0, hold=0.0)
+
+
+def _practical_benchmark(monkeypatch):
+    benchmarks = Path(__file__).resolve().parent.parent / "benchmarks"
+    monkeypatch.syspath_prepend(str(benchmarks))
+    return importlib.import_module("practical_records")
+
+
+def test_benchmark_classify_covers_every_outcome(monkeypatch):
+    classify = _practical_benchmark(monkeypatch).classify
+    s = lambda *names: frozenset(names)
+    assert classify(s("creep"), s("creep"), s()) == "exact"
+    assert classify(s(), s(), s("creep", "drift")) == "exact"
+    # Named a rival it cannot tell from the truth, and said so.
+    assert (
+        classify(s("creep"), s("rate_dependence"), s("creep", "rate_dependence"))
+        == "cannot tell"
+    )
+    assert classify(s("input_bias"), s(), s("input_bias")) == "cannot tell"
+    # An unflagged extra is a false claim, even when the truth was also named.
+    assert classify(s(), s("drift"), s()) == "false claim"
+    assert classify(s("creep"), s("creep", "drift"), s("creep")) == "false claim"
+    assert classify(s("creep"), s("rate_dependence"), s("creep")) == "false claim"
+    assert classify(s("creep"), s(), s()) == "missed"
+    assert classify(s("creep"), s("rate_dependence"), s("rate_dependence")) == (
+        "missed"
+    )

@@ -1,10 +1,8 @@
 """Statements of what the recording cannot tell apart."""
 
-import math
-
 import numpy as np
 
-from ._results import Validation
+from ._results import RESOLVED_SIGMA, Ambiguity, Rival, Validation
 from ._score import max_canonical_correlation, moving_columns
 
 
@@ -15,7 +13,7 @@ def standing_in(
     *,
     overlap: float = 0.9,
     min_gain: float = 0.05,
-) -> list[str]:
+) -> list[Ambiguity]:
     """Ambiguities for rejected candidates (effect, validation) that beat the
     held-out noise and the information criterion, and failed only the minimum-gain
     floor, while their signature (`signatures[effect]`: output sensitivities,
@@ -34,7 +32,7 @@ def standing_in(
             correlation = max_canonical_correlation(raw, cols)
             if correlation > overlap:
                 percent = 100 * gain / v.heldout_rmse_before**2
-                messages.append(
+                statement = (
                     f"{effect} may also be present: adding it lowered the held-out "
                     f"error by {percent:.1f} % (more than its noise, and the "
                     f"information criterion agrees), short of the {min_gain:.0%} "
@@ -43,13 +41,14 @@ def standing_in(
                     "part of it. Vary the excitation (levels, rates, amplitudes) to "
                     "separate them."
                 )
+                messages.append(Ambiguity(statement, (effect,)))
                 break
     return messages
 
 
 def unresolved(
     rejected: list[tuple[str, Validation]], *, min_gain: float = 0.05
-) -> list[str]:
+) -> list[Ambiguity]:
     """Statements for rejected candidates whose held-out gain was worth having (at
     least `min_gain` of the held-out MSE) but within what this record's held-out
     data can resolve: the data cannot tell, which is not the same as no effect."""
@@ -59,7 +58,7 @@ def unresolved(
         gain = before - v.heldout_rmse_after**2
         if v.accepted or gain < min_gain * before or gain > v.heldout_resolution_mse:
             continue
-        messages.append(
+        statement = (
             f"cannot tell whether {effect} is present: adding it lowered the held-out "
             f"error by {gain / before:.0%}, but this record's held-out data resolve "
             f"only MSE changes above {v.heldout_resolution_mse:.3g} (the residual is "
@@ -67,31 +66,30 @@ def unresolved(
             "effective held-out samples). Record more cycles (or more samples per "
             "cycle) to decide."
         )
+        messages.append(Ambiguity(statement, (effect,)))
     return messages
 
 
-def cannot_tell(
-    winner: str,
-    other: str,
-    winner_rmse: float,
-    other_rmse: float,
-    correlation: float,
-) -> str:
-    return (
-        f"cannot tell {winner} from {other} on this recording: both explain the "
-        f"mismatch about equally (held-out RMSE {winner_rmse:.3g} vs {other_rmse:.3g}; "
-        f"their signatures overlap, canonical correlation {correlation:.2f}). Vary the "
-        f"excitation (rates, frequencies, amplitudes, holds) to separate them; "
-        f"{winner} is kept for the fit."
+def cannot_tell_rivals(kept: str, rivals: list[Rival], kept_rmse: float) -> Ambiguity:
+    """The record cannot tell `kept` from `rivals` (each refitted in its place,
+    within the held-out comparison's resolution)."""
+    figures = "; ".join(
+        f"{r.effect} {r.heldout_rmse:.3g} ({_margin_words(r.margin_sigma)})"
+        for r in rivals
+    )
+    names = ", ".join(r.effect for r in rivals)
+    return Ambiguity(
+        f"cannot tell {kept} from {names} on this recording: refitted in its place, "
+        f"each explains the held-out data within what this record resolves (held-out "
+        f"RMSE {kept} {kept_rmse:.3g}; {figures}; resolved needs "
+        f"{RESOLVED_SIGMA:.0f} standard errors). {kept} is kept for the fit, but the "
+        "record does not show that it is the explanation; see the advice for a test "
+        "that would.",
+        (kept, *(r.effect for r in rivals)),
     )
 
 
-def cannot_tell_after(
-    kept: str, alternative: str, later: str, kept_mse: float, alternative_mse: float
-) -> str:
-    return (
-        f"cannot tell {kept} from {alternative} on this recording: with {later} "
-        f"modelled, either explains the held-out data as well (RMSE "
-        f"{math.sqrt(kept_mse):.3g} vs {math.sqrt(alternative_mse):.3g}); {kept} is "
-        "kept."
-    )
+def _margin_words(margin: float) -> str:
+    if margin >= 0:
+        return f"lost by {margin:.1f} standard errors"
+    return f"better by {-margin:.1f} standard errors"

@@ -26,23 +26,36 @@ from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
 from .._simulate import RK4
 from .._swarm import MPSO
-from ._ambiguity import cannot_tell, cannot_tell_after, standing_in, unresolved
+from ._ambiguity import cannot_tell_rivals, standing_in, unresolved
 from ._effects.base import AbstractEffect, RefitScales
 from ._families import AbstractFamily, PiezoFamily
 from ._locate import effective_samples
 from ._policy import AdoptionPolicy
+from ._progress import Progress
 from ._refit import RefitSettings, fitted_names, refit
-from ._results import Diagnosis, Finding, Score, Unexplained, Validation
+from ._remainder import remainder
+from ._results import (
+    RESOLVED_SIGMA,
+    Advice,
+    Ambiguity,
+    Diagnosis,
+    Finding,
+    Rival,
+    Score,
+    Step,
+    Unexplained,
+    Validation,
+)
 from ._score import (
     NoiseModel,
     chi2,
     jacobian,
-    max_canonical_correlation,
     moving_columns,
     predict,
     project_off,
     score_statistic,
 )
+from ._uncertainty import standard_errors
 from ._unexplained import unexplained_structure
 
 
@@ -62,6 +75,7 @@ class _Context(eqx.Module):
     solver: RK4
     sample_rate: float
     duration: float
+    progress: Progress
 
 
 class _Trial(eqx.Module):
@@ -83,24 +97,31 @@ class _State(eqx.Module):
     predicted: np.ndarray
     free: tuple[str, ...]
     findings: tuple[Finding, ...] = ()
-    ambiguities: tuple[str, ...] = ()
+    ambiguities: tuple[Ambiguity, ...] = ()
     rounds: tuple[list[Score], ...] = ()
-    # The trials that also passed validation in the round an effect was adopted,
-    # with where the mismatch was then: revisited once later effects are in.
-    runners_up: dict[str, tuple[list[_Trial], dict[str, Any]]] = eqx.field(
+    # The models moved to, in order (the report's RMSE chain).
+    steps: tuple[Step, ...] = ()
+    # Each effect's latest trial that passed held-out validation, with where the
+    # mismatch was then: the rivals every finding is tested against.
+    passed_trials: dict[str, tuple[_Trial, dict[str, Any]]] = eqx.field(
         default_factory=dict
     )
+    # Pairs of fitted models the record cannot tell apart (for the advice).
+    contrasts: tuple["_Contrast", ...] = ()
     noise: NoiseModel | None = None
     effective_heldout: float = 0.0
     # How far each parameter must move to change the output by its RMS (the
     # latest round's sensitivities).
     natural: dict[str, float] = eqx.field(default_factory=dict)
-    # Effects that have passed held-out validation in some round.
-    passed: frozenset[str] = frozenset()
 
     @property
     def adopted(self) -> tuple[str, ...]:
         return tuple(f.effect for f in self.findings)
+
+    @property
+    def passed(self) -> frozenset[str]:
+        """Effects that have passed held-out validation in some round."""
+        return frozenset(self.passed_trials)
 
     @property
     def noise_model(self) -> NoiseModel:
@@ -111,6 +132,16 @@ class _State(eqx.Module):
                 "estimated the noise; please report it."
             )
         return self.noise
+
+
+class _Contrast(eqx.Module):
+    """Two fitted models the record cannot tell apart: `kept` (with `separates[0]`)
+    and `other` (with the rest of `separates`, or without the effect when
+    `separates` names one)."""
+
+    separates: tuple[str, ...]
+    kept: AbstractHysteresisModel
+    other: AbstractHysteresisModel
 
 
 def _mse(residual: np.ndarray, mask) -> float:
@@ -157,6 +188,38 @@ def _predict(ctx: _Context, model) -> np.ndarray:
     return predict(model, ctx.inputs, ctx.solver)
 
 
+def _step(ctx: _Context, label: str, predicted: np.ndarray) -> Step:
+    residual = ctx.y - predicted
+    return Step(
+        label,
+        math.sqrt(_mse(residual, slice(None))),
+        math.sqrt(_mse(residual, ctx.hold_mask)),
+    )
+
+
+def _with_step(ctx: _Context, state: _State, label: str, **changes: Any) -> _State:
+    """`state` with `changes`, and a row for the model it moves to in the chain."""
+    state = dataclasses.replace(state, **changes)
+    return dataclasses.replace(
+        state, steps=state.steps + (_step(ctx, label, state.predicted),)
+    )
+
+
+def _heldout_comparison(
+    ctx: _Context, state: _State, kept: np.ndarray, other: np.ndarray
+) -> tuple[float, float, float]:
+    """The held-out MSEs of two fits' outputs and the standard error of their
+    difference (for noise as the noise model describes it)."""
+    kept_mse = _mse(ctx.y - kept, ctx.hold_mask)
+    other_mse = _mse(ctx.y - other, ctx.hold_mask)
+    change = float(np.sqrt(np.mean((other - kept)[ctx.hold_mask] ** 2)))
+    bound = math.sqrt(min(kept_mse, other_mse)) if ctx.policy.noise_bound else None
+    resolution = state.noise_model.resolution(
+        change, state.effective_heldout, bound=bound
+    )
+    return kept_mse, other_mse, resolution / RESOLVED_SIGMA
+
+
 # ------------------------------------------------------------------- base fit
 
 
@@ -182,7 +245,11 @@ def _base_fit(
         )
         base = fit.model
     current = ctx.family.extend(base, ctx.recording)
-    state = _State(current, _predict(ctx, current), ctx.family.base_free)
+    predicted = _predict(ctx, current)
+    state = _State(current, predicted, ctx.family.base_free)
+    state = dataclasses.replace(
+        state, steps=(_step(ctx, f"{ctx.family.base_name} fitted", predicted),)
+    )
     return state, base
 
 
@@ -325,6 +392,11 @@ def _refit_candidates(
     ]
     if policy.refit_runners_up:
         chosen += [c for c in scores if not c.significant and c.effect in state.passed]
+    if chosen:
+        ctx.progress.say(
+            "refitting " + ", ".join(c.effect for c in chosen) + " and validating "
+            "each on the held-out samples"
+        )
     scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
     starts = {}
     updated = {c.effect: c for c in scores}
@@ -426,42 +498,16 @@ def _why_rejected(v: Validation) -> str:
 
 
 def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
-    """Adopt the accepted trial with the lowest held-out error (saying which others
-    explain it as well), then converge the model with it before looking further:
-    an under-fitted winner leaves structure that would pass for a further effect."""
+    """Adopt the accepted trial with the lowest held-out error, then converge the
+    model with it before looking further: an under-fitted winner leaves structure
+    that would pass for a further effect. (The other accepted trials are its
+    rivals, compared once the selection is complete.)"""
     family, policy = ctx.family, ctx.policy
-    noise = state.noise_model
-    accepted = sorted(
+    winner = min(
         (t for t in trials if t.validation.accepted),
         key=lambda t: t.validation.heldout_rmse_after,
     )
-    winner = accepted[0]
     name = winner.score.effect
-    ambiguities = list(state.ambiguities)
-    for other in accepted[1:]:
-        # Ambiguous: the two fits differ on held-out data by less than the held-out
-        # comparison can resolve, and their signatures overlap.
-        difference = (
-            other.validation.heldout_rmse_after**2
-            - winner.validation.heldout_rmse_after**2
-        )
-        apart = float(
-            np.sqrt(np.mean((other.predicted - winner.predicted)[ctx.hold_mask] ** 2))
-        )
-        resolution = noise.resolution(apart, state.effective_heldout)
-        overlap = max_canonical_correlation(
-            winner.score.directions, other.score.directions
-        )
-        if difference < resolution and overlap > policy.overlap:
-            ambiguities.append(
-                cannot_tell(
-                    name,
-                    other.score.effect,
-                    winner.validation.heldout_rmse_after,
-                    other.validation.heldout_rmse_after,
-                    overlap,
-                )
-            )
     where_now = family.locate(ctx.recording, ctx.y - state.predicted)
     effect = family.effect(name)
     finding = Finding(
@@ -475,26 +521,34 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
         winner.validation,
     )
     free = state.free + tuple(p for p in effect.parameters if p not in state.free)
+    state = _with_step(
+        ctx,
+        state,
+        f"{name} added (refit on the fitted samples)",
+        current=winner.model,
+        predicted=winner.predicted,
+        free=free,
+        findings=state.findings + (finding,),
+    )
+    ctx.progress.say(f"adopted {name}; converging the model with it")
     current = _refit(ctx, state, winner.model, free, max_steps=policy.converge_steps)
     predicted = _predict(ctx, current)
     if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
         ctx.y - winner.predicted, ctx.fit_mask
     ):
-        current, predicted = winner.model, winner.predicted
-    return dataclasses.replace(
+        return state
+    return _with_step(
+        ctx,
         state,
+        f"refit converged with {name}",
         current=current,
         predicted=predicted,
-        free=free,
-        findings=state.findings + (finding,),
-        ambiguities=tuple(ambiguities),
-        runners_up={**state.runners_up, name: (accepted[1:], where_now)},
     )
 
 
 def _near_misses(
     ctx: _Context, state: _State, column: dict[str, np.ndarray], trials: list[_Trial]
-) -> list[str]:
+) -> list[Ambiguity]:
     """When nothing was adopted: rejected candidates that an adopted effect may be
     standing in for. Signatures are compared beyond what the base model's own
     parameters explain (both sides are largely functions of the input otherwise)."""
@@ -546,23 +600,31 @@ def _better_base(ctx: _Context, state: _State, trials: list[_Trial]):
 
 def _forward(ctx: _Context, state: _State) -> _State:
     """Forward selection: score, refit, adopt; until nothing is accepted."""
-    for _ in range(ctx.policy.max_effects):
+    for number in range(1, ctx.policy.max_effects + 1):
+        ctx.progress.say(f"round {number}: scoring {_remaining(ctx, state)}")
         state, scores, natural, column = _score_round(ctx, state)
         if any(c.significant for c in scores):
             # Refits (this round's and any later stage's) use these scales.
             state = dataclasses.replace(state, natural=natural)
         scores, trials = _refit_candidates(ctx, state, scores)
-        passed = {t.score.effect for t in trials if t.validation.accepted}
+        where = ctx.family.locate(ctx.recording, ctx.y - state.predicted)
+        passed = {t.score.effect: (t, where) for t in trials if t.validation.accepted}
         state = dataclasses.replace(
-            state, rounds=state.rounds + (scores,), passed=state.passed | passed
+            state,
+            rounds=state.rounds + (scores,),
+            passed_trials={**state.passed_trials, **passed},
         )
-        if not any(t.validation.accepted for t in trials):
+        if not passed:
             better = _better_base(ctx, state, trials)
             if better is not None:
                 # No effect, but a better basin for the model's own parameters:
                 # take it and score again from there.
-                state = dataclasses.replace(
-                    state, current=better[0], predicted=better[1]
+                state = _with_step(
+                    ctx,
+                    state,
+                    "base parameters refitted (a better basin, no effect added)",
+                    current=better[0],
+                    predicted=better[1],
                 )
                 continue
             near = _near_misses(ctx, state, column, trials) if trials else []
@@ -570,11 +632,23 @@ def _forward(ctx: _Context, state: _State) -> _State:
                 [(t.score.effect, t.validation) for t in trials],
                 min_gain=ctx.policy.min_heldout_gain,
             )
+            by_effect = {t.score.effect: t for t in trials}
+            contrasts = tuple(
+                _Contrast(a.undecided, state.current, by_effect[a.undecided[0]].model)
+                for a in near
+            )
             return dataclasses.replace(
-                state, ambiguities=state.ambiguities + tuple(near)
+                state,
+                ambiguities=state.ambiguities + tuple(near),
+                contrasts=state.contrasts + contrasts,
             )
         state = _adopt(ctx, state, trials)
     return state
+
+
+def _remaining(ctx: _Context, state: _State) -> str:
+    names = [e.name for e in ctx.family.catalogue if e.name not in state.adopted]
+    return ", ".join(names) if names else "nothing left"
 
 
 # ------------------------------------------------------- backward check, swaps
@@ -584,6 +658,8 @@ def _backward(ctx: _Context, state: _State) -> _State:
     """Drop any adopted effect that no longer earns its place once later ones are
     in (e.g. a rate dependence that was standing in for an input network)."""
     family = ctx.family
+    if len(state.findings) >= 2:
+        ctx.progress.say("backward check: does every effect still earn its place?")
     while len(state.findings) >= 2:
         hold_now = _mse(ctx.y - state.predicted, ctx.hold_mask)
         weakest = None
@@ -615,108 +691,160 @@ def _backward(ctx: _Context, state: _State) -> _State:
             f"{', '.join(f.effect for f in findings)} had been added it no longer "
             "lowered the held-out error by more than its noise."
         )
-        state = dataclasses.replace(
+        state = _with_step(
+            ctx,
             state,
+            f"{finding.effect} dropped (backward check)",
             current=current,
             predicted=predicted,
             free=free,
             findings=findings,
-            ambiguities=state.ambiguities + (message,),
+            ambiguities=state.ambiguities + (Ambiguity(message),),
         )
     return state
 
 
-def _swaps(ctx: _Context, state: _State) -> _State:
-    """Revisit greedy choices: an effect adopted while a later one was still
-    unmodelled may have won by soaking up part of that one. With the later effects
-    in the model, each runner-up of its round is tried in its place, and replaces it
-    if it explains the held-out data better beyond the noise."""
+def _rivals(ctx: _Context, state: _State) -> _State:
+    """Test every finding against its rivals: each effect that passed held-out
+    validation in some round and is not adopted, refitted in the finding's place
+    with the other findings kept, compared on the held-out samples in standard
+    errors of the difference. A rival better beyond the resolution replaces the
+    finding (greedy choices made while a later effect was unmodelled can be
+    wrong); rivals within it leave the finding undecided, said as an ambiguity."""
     family = ctx.family
-    for position in range(len(state.findings) - 1):
-        noise = state.noise_model
+    position, replacements = 0, 0
+    while position < len(state.findings):
         finding = state.findings[position]
         adopted_effect = family.effect(finding.effect)
-        others, where_then = state.runners_up.get(finding.effect, ([], {}))
-        for other in others:
-            alternative = family.effect(other.score.effect)
-            if alternative.name in state.adopted:
-                continue
+        others = [n for n in state.passed_trials if n not in state.adopted]
+        if others:
+            ctx.progress.say(
+                f"testing {finding.effect} against its rivals: {', '.join(others)}"
+            )
+        rivals: list[tuple[Rival, AbstractHysteresisModel]] = []
+        replaced = None
+        for name in others:
+            trial, where_then = state.passed_trials[name]
+            alternative = family.effect(name)
             names = tuple(
                 p for p in state.free if p not in adopted_effect.parameters
-            ) + tuple(alternative.parameters)
-            trial = alternative.take_from(
-                adopted_effect.switch_off(state.current), other.model
+            ) + tuple(p for p in alternative.parameters if p not in state.free)
+            start = alternative.take_from(
+                adopted_effect.switch_off(state.current), trial.model
             )
-            swapped = _refit(
-                ctx,
-                state,
-                trial,
-                names,
-                max_steps=20,
-                key=jax.random.fold_in(ctx.key, 7919 + position),
+            key = jax.random.fold_in(
+                ctx.key, 7919 + 97 * position + family.effect_names.index(name)
             )
+            swapped = _refit(ctx, state, start, names, max_steps=20, key=key)
             swapped_pred = _predict(ctx, swapped)
             if not _finite(swapped_pred):
                 continue
-            hold_now = _mse(ctx.y - state.predicted, ctx.hold_mask)
-            hold_swapped = _mse(ctx.y - swapped_pred, ctx.hold_mask)
-            change = float(
-                np.sqrt(np.mean((swapped_pred - state.predicted)[ctx.hold_mask] ** 2))
+            kept_mse, rival_mse, se = _heldout_comparison(
+                ctx, state, state.predicted, swapped_pred
             )
-            resolution = noise.resolution(change, state.effective_heldout)
-            later = ", ".join(f.effect for f in state.findings[position + 1 :])
-            if hold_now - hold_swapped <= resolution:
-                if hold_swapped - hold_now <= resolution:
-                    state = dataclasses.replace(
-                        state,
-                        ambiguities=state.ambiguities
-                        + (
-                            cannot_tell_after(
-                                finding.effect,
-                                alternative.name,
-                                later,
-                                hold_now,
-                                hold_swapped,
-                            ),
-                        ),
-                    )
-                continue
-            message = (
-                f"{finding.effect} was adopted first, then replaced by "
-                f"{alternative.name}: once {later} had been added, {alternative.name} "
-                f"explains the held-out data better (RMSE {math.sqrt(hold_swapped):.3g} "
-                f"vs {math.sqrt(hold_now):.3g}, beyond its noise)."
-            )
-            replacement = Finding(
-                alternative.name,
-                _evidence(alternative, other.validation, where_then, swapped),
-                family.describe(where_then),
-                float(other.score.statistic),
-                alternative.values(swapped),
-                finding.before,
-                error_metrics(ctx.y, other.predicted),
-                dataclasses.replace(other.validation, replaced=finding.effect),
-            )
-            findings = list(state.findings)
-            findings[position] = replacement
-            current = _refit(
-                ctx, state, swapped, names, max_steps=ctx.policy.converge_steps
-            )
-            predicted = _predict(ctx, current)
-            if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
-                ctx.y - swapped_pred, ctx.fit_mask
-            ):
-                current, predicted = swapped, swapped_pred
+            margin = (rival_mse - kept_mse) / se if se > 0 else 0.0
+            if margin < -RESOLVED_SIGMA and replacements < len(family.catalogue):
+                replaced = (
+                    trial,
+                    where_then,
+                    alternative,
+                    swapped,
+                    swapped_pred,
+                    names,
+                )
+                replaced += (kept_mse, rival_mse)
+                break
+            rivals.append((Rival(name, math.sqrt(rival_mse), margin), swapped))
+        if replaced is not None:
+            state = _replace_finding(ctx, state, position, *replaced)
+            replacements += 1
+            continue  # test the replacement against its own rivals
+        close = [(r, m) for r, m in rivals if not r.resolved]
+        findings = list(state.findings)
+        findings[position] = dataclasses.replace(
+            finding, rivals=tuple(r for r, _ in rivals)
+        )
+        state = dataclasses.replace(state, findings=tuple(findings))
+        if close:
+            kept_rmse = math.sqrt(_mse(ctx.y - state.predicted, ctx.hold_mask))
             state = dataclasses.replace(
                 state,
-                current=current,
-                predicted=predicted,
-                free=names,
-                findings=tuple(findings),
-                ambiguities=state.ambiguities + (message,),
+                ambiguities=state.ambiguities
+                + (
+                    cannot_tell_rivals(
+                        finding.effect, [r for r, _ in close], kept_rmse
+                    ),
+                ),
+                contrasts=state.contrasts
+                + tuple(
+                    _Contrast((finding.effect, r.effect), state.current, m)
+                    for r, m in close
+                ),
             )
-            break
+        position += 1
     return state
+
+
+def _replace_finding(
+    ctx: _Context,
+    state: _State,
+    position: int,
+    trial: _Trial,
+    where_then: dict[str, Any],
+    alternative: AbstractEffect,
+    swapped: AbstractHysteresisModel,
+    swapped_pred: np.ndarray,
+    names: tuple[str, ...],
+    kept_mse: float,
+    rival_mse: float,
+) -> _State:
+    """`state` with the finding at `position` replaced by `alternative` (refitted
+    in its place as `swapped`), converged."""
+    finding = state.findings[position]
+    later = [f.effect for f in state.findings if f is not finding]
+    message = (
+        f"{finding.effect} was adopted first, then replaced by {alternative.name}: "
+        + (f"with {', '.join(later)} modelled, " if later else "")
+        + f"{alternative.name} explains the held-out data better (RMSE "
+        f"{math.sqrt(rival_mse):.3g} vs {math.sqrt(kept_mse):.3g}, beyond the "
+        "resolution)."
+    )
+    ctx.progress.say(f"{finding.effect} replaced by {alternative.name}")
+    replacement = Finding(
+        alternative.name,
+        _evidence(alternative, trial.validation, where_then, swapped),
+        ctx.family.describe(where_then),
+        float(trial.score.statistic),
+        alternative.values(swapped),
+        error_metrics(ctx.y, state.predicted),
+        error_metrics(ctx.y, swapped_pred),
+        dataclasses.replace(trial.validation, replaced=finding.effect),
+    )
+    findings = list(state.findings)
+    findings[position] = replacement
+    state = _with_step(
+        ctx,
+        state,
+        f"{finding.effect} replaced by {alternative.name}",
+        current=swapped,
+        predicted=swapped_pred,
+        free=names,
+        findings=tuple(findings),
+        ambiguities=state.ambiguities + (Ambiguity(message),),
+    )
+    current = _refit(ctx, state, swapped, names, max_steps=ctx.policy.converge_steps)
+    predicted = _predict(ctx, current)
+    if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
+        ctx.y - swapped_pred, ctx.fit_mask
+    ):
+        return state
+    return _with_step(
+        ctx,
+        state,
+        f"refit converged with {alternative.name}",
+        current=current,
+        predicted=predicted,
+    )
 
 
 def _final_refit(
@@ -725,6 +853,7 @@ def _final_refit(
     """With effects adopted, the model refitted on every sample."""
     if not state.findings:
         return state.current, state.predicted
+    ctx.progress.say("final refit on every sample")
     # Unit weights rather than None: the same structure as the masked refits, so
     # this fit reuses their compiled Levenberg-Marquardt program.
     final_model = _refit(
@@ -744,14 +873,124 @@ def _final_refit(
     return state.current, state.predicted
 
 
+# A parameter that moves by more than this share of its size between adoption and
+# the final model (and by more than the resolution in standard errors) is flagged.
+MOVE_SHARE = 0.25
+
+
+def _described(
+    ctx: _Context,
+    state: _State,
+    final_model: AbstractHysteresisModel,
+    final_pred: np.ndarray,
+) -> tuple[Finding, ...]:
+    """Each finding with its values in the final model, their standard errors (from
+    the final model's output sensitivities) and units, their physical reading, and
+    a flag on a large move since adoption."""
+    if not state.findings:
+        return ()
+    ctx.progress.say("standard errors of the final model's parameters")
+    names = list(state.free)
+    jac = jacobian(final_model, names, ctx.inputs, ctx.solver)
+    errors = dict(zip(names, standard_errors(jac, ctx.y - final_pred).tolist()))
+    recording = ctx.recording
+    described = []
+    for index, finding in enumerate(state.findings):
+        effect = ctx.family.effect(finding.effect)
+        values = effect.values(final_model)
+        se = {p: float(errors.get(p, math.nan)) for p in values}
+        units = effect.units(
+            time=recording.time_unit,
+            input=recording.input_unit,
+            output=recording.output_unit,
+        )
+        later = [f.effect for f in state.findings[index + 1 :]]
+        described.append(
+            dataclasses.replace(
+                finding,
+                final_parameters=values,
+                standard_errors=se,
+                units=units,
+                meaning=effect.meaning,
+                reading=effect.reading(values, se, units),
+                moved=_moved(finding.parameters, values, se, units, later),
+            )
+        )
+    return tuple(described)
+
+
+def _moved(
+    adopted: dict[str, float],
+    final: dict[str, float],
+    errors: dict[str, float],
+    units: dict[str, str],
+    later: list[str],
+) -> str | None:
+    """Words for the parameters that moved a lot between adoption and the final
+    model (beyond `MOVE_SHARE` of their size and the resolution), and why they can."""
+    parts = []
+    for name, before in adopted.items():
+        after, se = final[name], errors[name]
+        change = abs(after - before)
+        if change <= MOVE_SHARE * max(abs(before), abs(after)):
+            continue
+        if math.isfinite(se) and change <= RESOLVED_SIGMA * se:
+            continue
+        size = f", {change / se:.0f} standard errors" if math.isfinite(se) else ""
+        unit = "" if units[name] == "1" else f" {units[name]}"
+        parts.append(f"{name} {before:.3g} -> {after:.3g}{unit}{size}")
+    if not parts:
+        return None
+    why = (
+        f"{', '.join(later)} adopted after it took up part of what it first absorbed; "
+        if later
+        else ""
+    ) + "the final refit fits every sample, the held-out ones too"
+    return f"moved between adoption and the final model: {'; '.join(parts)} ({why})."
+
+
+def _advice(ctx: _Context, state: _State) -> list[Advice]:
+    """For each pair of fitted models the record cannot tell apart, the family's
+    proposed test under which their outputs differ most, in noise sigmas."""
+    if not state.contrasts:
+        return []
+    ctx.progress.say("simulating the rival models under tests that could separate them")
+    probes = ctx.family.probes(ctx.recording)
+    sigma = state.noise_model.sd
+    advice = []
+    for contrast in state.contrasts:
+        here = _rms(_predict(ctx, contrast.kept) - _predict(ctx, contrast.other))
+        best = None
+        for probe in probes:
+            apart = predict(contrast.kept, probe.path, ctx.solver) - predict(
+                contrast.other, probe.path, ctx.solver
+            )
+            if _finite(apart) and (best is None or _rms(apart) > best[1]):
+                best = (probe, _rms(apart))
+        if best is not None:
+            advice.append(
+                Advice(
+                    contrast.separates,
+                    best[0].description,
+                    best[1] / sigma,
+                    here / sigma,
+                )
+            )
+    return advice
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(x**2)))
+
+
 def _evidence(
     effect: AbstractEffect, v: Validation, where: dict[str, Any], model
 ) -> str:
     return (
         f"{effect.meaning}. Score test: statistic {v.score_statistic:.3g} on "
         f"{v.score_dof} dof (log10 p = {v.log10_p:.1f}); {effect.evidence(where, model)}. "
-        f"Adding it cut the held-out RMSE by {v.heldout_gain:.0%} "
-        f"({v.heldout_rmse_before:.3g} -> {v.heldout_rmse_after:.3g})."
+        f"Adding it lowered the held-out RMSE from {v.heldout_rmse_before:.3g} to "
+        f"{v.heldout_rmse_after:.3g}."
     )
 
 
@@ -866,15 +1105,27 @@ def _diagnose(
         family.solver(recording),
         recording.sample_rate,
         recording.duration,
+        Progress(progress),
     )
+    ctx.progress.say(f"fitting the {family.base_name} base model")
     state, base = _base_fit(ctx, base, swarm, progress)
     base_predicted = state.predicted
     baseline = error_metrics(ctx.y, base_predicted)
     location = family.locate(recording, ctx.y - base_predicted)
     state = _forward(ctx, state)
     state = _backward(ctx, state)
-    state = _swaps(ctx, state)
+    state = _rivals(ctx, state)
+    advice = _advice(ctx, state)
     final_model, final_pred = _final_refit(ctx, state)
+    if final_model is not state.current:
+        state = _with_step(
+            ctx,
+            state,
+            "final refit on every sample",
+            current=final_model,
+            predicted=final_pred,
+        )
+    findings = _described(ctx, state, final_model, final_pred)
     unexplained: list[Unexplained] = unexplained_structure(
         recording, family, ctx.y - final_pred, fit_mask, policy
     )
@@ -896,6 +1147,7 @@ def _diagnose(
         for n in final_model.parameter_names
         if n in names
     }
+    what_is_left = remainder(recording, ctx.y - final_pred, heldout=~fit_mask)
     return Diagnosis(
         recording.name,
         recording.num_samples,
@@ -905,10 +1157,12 @@ def _diagnose(
         final_model,
         baseline,
         error_metrics(ctx.y, final_pred),
-        list(state.findings),
+        list(findings),
         unexplained,
         list(state.rounds),
         list(state.ambiguities),
+        advice,
+        list(state.steps),
         noise["sigma"],
         noise,
         location,
@@ -920,4 +1174,5 @@ def _diagnose(
         final_parameters,
         family.exports(final_model, recording),
         time.perf_counter() - start_time,
+        what_is_left,
     )

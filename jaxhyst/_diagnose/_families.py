@@ -33,6 +33,7 @@ from ._effects.push_pull import PushPullAsymmetry
 from ._effects.rate_dependence import RateDependence
 from ._locate import describe, describe_cycles, locate, locate_cycles
 from ._policy import AdoptionPolicy
+from ._probes import Probe, cyclic_probes, piezo_probes
 
 
 class AbstractFamily(eqx.Module):
@@ -113,6 +114,11 @@ class AbstractFamily(eqx.Module):
     def describe(self, where: dict[str, Any]) -> str:
         """`locate`'s result as one sentence."""
 
+    @abc.abstractmethod
+    def probes(self, recording: Recording) -> list[Probe]:
+        """Tests this family's users could run next to separate effects the
+        record cannot tell apart (simulated, never assumed, to check the advice)."""
+
     def base_bounds(self, name: str, value: float) -> tuple[float, float] | None:
         """Refit bounds of a base parameter, or None for the engine's rule."""
         if name == "n":
@@ -181,6 +187,9 @@ class PiezoFamily(AbstractFamily):
 
     def describe(self, where):
         return describe(where)
+
+    def probes(self, recording):
+        return piezo_probes(recording)
 
     def refit_stride(self, model, recording):
         # Quasi-static fits see turning points, not the sample rate: 250 Hz is
@@ -274,6 +283,9 @@ class StructuralFamily(AbstractFamily):
 
     def describe(self, where):
         return describe_cycles(where)
+
+    def probes(self, recording):
+        return cyclic_probes(recording)
 
     def exports(self, model, recording):
         # The matching OpenSees uniaxial material (BoucWen, or BWBN when pinched).

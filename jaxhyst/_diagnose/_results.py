@@ -6,6 +6,7 @@ import equinox as eqx
 import numpy as np
 
 from .._models.base import AbstractHysteresisModel
+from ._remainder import Remainder
 
 
 class Validation(eqx.Module):
@@ -89,8 +90,85 @@ class Score(eqx.Module):
         return out
 
 
+# A held-out MSE difference counts as resolved beyond this many standard errors
+# (`NoiseModel.resolution` is this many standard errors).
+RESOLVED_SIGMA = 3.0
+
+
+class Rival(eqx.Module):
+    """Another effect refitted in a finding's place, with the finding's other
+    effects kept: its held-out RMSE, and how far it lost (`margin_sigma`: the
+    held-out MSE difference in standard errors of that difference; below the
+    resolution's 3 the record cannot tell the two apart, negative: the rival fits
+    the held-out data better)."""
+
+    effect: str
+    heldout_rmse: float
+    margin_sigma: float
+
+    @property
+    def resolved(self) -> bool:
+        return self.margin_sigma > RESOLVED_SIGMA
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "effect": self.effect,
+            "heldout_rmse": self.heldout_rmse,
+            "margin_sigma": self.margin_sigma,
+        }
+
+
+class Ambiguity(eqx.Module):
+    """A statement about the choice of effects: `undecided` names the effects the
+    record cannot decide on (empty for a statement of a decision, e.g. an effect
+    dropped or replaced)."""
+
+    statement: str
+    undecided: tuple[str, ...] = ()
+
+
+class Advice(eqx.Module):
+    """A test that would separate effects this record cannot tell apart: the
+    rival fitted models simulated under `input` differ by `difference_sigma`
+    noise sigmas (RMS of the difference over the noise's standard deviation)."""
+
+    separates: tuple[str, ...]
+    input: str
+    difference_sigma: float
+    # The same difference on the recording analysed, for comparison.
+    difference_sigma_here: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "separates": list(self.separates),
+            "input": self.input,
+            "difference_sigma": self.difference_sigma,
+            "difference_sigma_on_this_record": self.difference_sigma_here,
+        }
+
+
+class Step(eqx.Module):
+    """One model the diagnosis moved to, in order: the RMSE chain of a report."""
+
+    label: str
+    rmse: float
+    heldout_rmse: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "step": self.label,
+            "rmse": self.rmse,
+            "heldout_rmse": self.heldout_rmse,
+        }
+
+
 class Finding(eqx.Module):
-    """One adopted effect, with the evidence for it and what it bought."""
+    """One adopted effect, with the evidence for it and what it bought.
+
+    `parameters` are the values when it was adopted; `final_parameters`,
+    `standard_errors` and `units` describe the final model (filled in once the
+    diagnosis is complete), `reading` says what they mean physically and `moved`
+    flags a large move between the two."""
 
     effect: str
     evidence: str
@@ -100,18 +178,40 @@ class Finding(eqx.Module):
     before: dict[str, float]
     after: dict[str, float]
     validation: Validation
+    rivals: tuple[Rival, ...] = ()
+    final_parameters: dict[str, float] = eqx.field(default_factory=dict)
+    standard_errors: dict[str, float] = eqx.field(default_factory=dict)
+    units: dict[str, str] = eqx.field(default_factory=dict)
+    meaning: str = ""
+    reading: str = ""
+    moved: str | None = None
+
+    @property
+    def decided(self) -> bool:
+        """True when every rival lost by more than the record's resolution."""
+        return all(r.resolved for r in self.rivals)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out = {
             "effect": self.effect,
             "evidence": self.evidence,
             "where": self.where,
             "score": self.score,
             "parameters": self.parameters,
+            "final_parameters": self.final_parameters,
+            "units": self.units,
+            "standard_errors": self.standard_errors,
+            "meaning": self.meaning,
+            "reading": self.reading,
             "before": self.before,
             "after": self.after,
             "validation": self.validation.to_dict(),
+            "rivals": [r.to_dict() for r in self.rivals],
+            "decided": self.decided,
         }
+        if self.moved is not None:
+            out["moved"] = self.moved
+        return out
 
 
 class Unexplained(eqx.Module):
@@ -148,7 +248,9 @@ class Diagnosis(eqx.Module):
     findings: list[Finding]
     unexplained: list[Unexplained]
     rounds: list[list[Score]]
-    ambiguities: list[str]
+    ambiguities: list[Ambiguity]
+    advice: list[Advice]
+    steps: list[Step]
     noise_sigma: float
     noise: dict[str, float]
     location: dict[str, Any]
@@ -162,10 +264,17 @@ class Diagnosis(eqx.Module):
     # Family-specific keys of the JSON (the structural family: `opensees`).
     exports: dict[str, Any]
     seconds: float
+    # Where the final model still misses most, and whether the rest is noise.
+    remainder: Remainder
 
     @property
     def effects(self) -> tuple[str, ...]:
         return tuple(f.effect for f in self.findings)
+
+    @property
+    def undecided(self) -> frozenset[str]:
+        """The effects this record cannot decide on (named in an ambiguity)."""
+        return frozenset(e for a in self.ambiguities for e in a.undecided)
 
     @property
     def final_rmse(self) -> float:
@@ -191,10 +300,14 @@ class Diagnosis(eqx.Module):
                 "metrics": self.final,
                 "parameters": self.final_parameters,
             },
-            "ambiguities": self.ambiguities,
+            "ambiguities": [a.statement for a in self.ambiguities],
+            "undecided": sorted(self.undecided),
+            "advice": [a.to_dict() for a in self.advice],
+            "steps": [s.to_dict() for s in self.steps],
             "location": self.location,
             "candidates": self.candidates,
             "holdout_fraction": self.holdout_fraction,
             **self.exports,
             "timing": {"total_s": self.seconds},
+            "remainder": self.remainder.to_dict(),
         }

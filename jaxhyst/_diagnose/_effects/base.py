@@ -5,16 +5,23 @@ parameters of the family's extended model: with its gains at zero the extended m
 is the base model exactly. Everything the engine decides per effect lives on the
 effect object (one final class per effect, one file each): how it is switched on and
 off, where its parameters may go, which output directions the score test projects
-on, where a refit starts, and the words of its evidence.
+on, where a refit starts, the words of its evidence, its parameters' units and
+their physical reading.
+
+The helpers at the end turn figures into words: every claim an evidence sentence
+makes is decided by the figure it quotes and a threshold named here (or in
+`_locate`), so a sentence cannot say "concentrated" next to 0.92x.
 """
 
 import abc
-from typing import Any, ClassVar, TypeVar
+import math
+from typing import Any, ClassVar, NamedTuple, TypeVar
 
 import equinox as eqx
 import numpy as np
 
 from ..._models.base import AbstractHysteresisModel
+from .._locate import CARRIES, CONCENTRATED, MIN_FRACTION
 
 
 class RefitScales(eqx.Module):
@@ -112,7 +119,23 @@ class AbstractEffect(eqx.Module):
     @abc.abstractmethod
     def evidence(self, where: dict[str, Any], model: AbstractHysteresisModel) -> str:
         """The location figures (`where`, from the family's `locate`) and fitted
-        values (`model`) that support this effect, in words."""
+        values (`model`) that bear on this effect, in words: a figure is called
+        support only when it passes its threshold, and a sentence with no such
+        figure says so."""
+
+    @abc.abstractmethod
+    def units(self, *, time: str, input: str, output: str) -> dict[str, str]:
+        """Each parameter's unit, from the recording's time, input and output unit
+        strings ("1": dimensionless; an empty unit string reads as "time units",
+        "input units" or "output units")."""
+
+    @abc.abstractmethod
+    def reading(
+        self, values: dict[str, float], errors: dict[str, float], units: dict[str, str]
+    ) -> str:
+        """The fitted `values` with their standard `errors` (NaN or missing: not
+        determined by the record) in an engineer's words, in the `units` that
+        `units` gives."""
 
 
 ModelT = TypeVar("ModelT", bound=AbstractHysteresisModel)
@@ -127,3 +150,180 @@ def model_as(model: AbstractHysteresisModel, cls: type[ModelT], effect: str) -> 
             f"{type(model).__name__}; pass a model of the same family."
         )
     return model
+
+
+# ----------------------------------------------------------------- figures to words
+
+# Two means (the branches', push's and pull's) differ when they are at least this
+# share of the overall residual RMS apart: a mean offset of a quarter of the RMS is
+# visible on a plot of the residual, a smaller one is not worth naming.
+MEAN_GAP = 0.25
+# One category's residual RMS is "larger" than another's at this ratio (fast vs
+# slow rates, the last vs the first third of a test): 2.25x the power.
+CONTRAST = 1.5
+# What carries a finding that no location figure supports.
+SCORE_AND_GAIN = "the score test and the held-out gain"
+
+
+class Figure(NamedTuple):
+    """One figure in words, and whether it supports the effect (words may be empty
+    for a figure that is only worth quoting when it supports)."""
+
+    supports: bool
+    words: str
+
+
+def concentration(where: dict[str, Any], key: str, place: str, why: str = "") -> Figure:
+    """Whether `where[key]`'s residual RMS stands out (`CONCENTRATED` times the
+    overall or more, on more than `MIN_FRACTION` of the samples), in words; `why`
+    follows a supporting figure."""
+    entry = where[key]
+    relative = float(entry["relative"])
+    if not (math.isfinite(relative) and entry["fraction"] > MIN_FRACTION):
+        return Figure(False, f"too few samples {place} to tell")
+    # Decided on the figure as quoted, so the words never contradict it.
+    quoted = round(relative, 2)
+    if quoted >= CONCENTRATED:
+        tail = f", {why}" if why else ""
+        return Figure(
+            True,
+            f"the residual is concentrated {place} ({quoted:.2f}x the overall RMS)"
+            + tail,
+        )
+    return Figure(
+        False,
+        f"the residual is not concentrated {place} ({quoted:.2f}x the overall RMS)",
+    )
+
+
+def contrast(where: dict[str, Any], larger: str, smaller: str, words: str) -> Figure:
+    """Whether `where[larger]`'s residual RMS is `CONTRAST` times `where[smaller]`'s
+    or more: `words` with the ratio filled in ({ratio}) if so, no words if not."""
+    a, b = float(where[larger]["relative"]), float(where[smaller]["relative"])
+    if not (math.isfinite(a) and math.isfinite(b) and b > 0):
+        return Figure(False, "")
+    ratio = round(a / b, 2)
+    if ratio >= CONTRAST:
+        return Figure(True, words.format(ratio=ratio))
+    return Figure(False, "")
+
+
+def share(part: float, overall: float) -> float:
+    """`part` as a share of `overall` (NaN when there is no residual)."""
+    return float(part) / overall if overall > 0 else float("nan")
+
+
+def carries(part: float, overall: float, what: str, why: str = "") -> Figure:
+    """Whether a part of the residual (`what`, an RMS `part`) carries `CARRIES` of
+    its overall RMS or more, in words."""
+    fraction = share(part, overall)
+    if not math.isfinite(fraction):
+        return Figure(False, f"there is no residual to split into {what}")
+    quoted = round(fraction, 2)
+    if quoted >= CARRIES:
+        tail = f", {why}" if why else ""
+        return Figure(True, f"{what} carries {quoted:.0%} of the residual RMS{tail}")
+    return Figure(False, f"{what} carries only {quoted:.0%} of the residual RMS")
+
+
+def conclude(figures: list[Figure], instead: str = SCORE_AND_GAIN) -> str:
+    """The figures' words, and, when none supports the effect, what does."""
+    words = [f.words for f in figures if f.words]
+    if not any(f.supports for f in figures):
+        words.append(f"no location figure singles it out; the evidence is {instead}")
+    return "; ".join(words)
+
+
+# ------------------------------------------------------------- units and readings
+
+
+# The unit of rates per dissipated energy (degradation, pinching): a cyclic test's
+# energy is counted in the record's max|F| * max|x| (StructuralBoucWen's
+# energy_scale).
+ENERGY_UNIT = "1/(max|F|·max|x|)"
+
+
+class Units(NamedTuple):
+    """A recording's unit strings, never blank."""
+
+    time: str
+    input: str
+    output: str
+
+
+def named_units(time: str, input: str, output: str) -> Units:
+    """The recording's unit strings, with "time units", "input units" and
+    "output units" for empty ones."""
+    return Units(time or "time units", input or "input units", output or "output units")
+
+
+def _group(unit: str) -> str:
+    return f"({unit})" if any(c in unit for c in " /·^") else unit
+
+
+def per(numerator: str, denominator: str) -> str:
+    """The unit `numerator` per `denominator` ("1" per ...: the inverse)."""
+    return f"{_group(numerator)}/{_group(denominator)}"
+
+
+def power(unit: str, exponent: str) -> str:
+    """`unit` to the power `exponent` (a number or a parameter's name)."""
+    return f"{_group(unit)}^{exponent}"
+
+
+def times(*units: str) -> str:
+    """The product of `units`."""
+    return "·".join(_group(u) for u in units)
+
+
+def not_determined(error: float | None) -> bool:
+    """Whether a standard error leaves its parameter undetermined (NaN, inf,
+    missing or not positive)."""
+    return error is None or not math.isfinite(error) or error <= 0
+
+
+def quantity(value: float, error: float | None, unit: str = "1") -> str:
+    """A value with its standard error and unit, as in "0.133 ± 0.004 s": both
+    rounded at the error's second significant digit when it starts with 1, else
+    its first (with a shared power of ten outside 1e-3 to 1e6); an undetermined
+    error reads "(not determined by this record)". Unit "1" or "" is left out."""
+    suffix = "" if unit in ("", "1") else f" {unit}"
+    if error is None or not_determined(error):
+        return f"{value:.3g}{suffix} (not determined by this record)"
+    exponent = math.floor(math.log10(error))
+    place = exponent - 1 if round(error / 10**exponent, 1) < 2 else exponent
+    largest = max(abs(value), error)
+    if 1e-3 <= largest < 1e6:
+        decimals = max(0, -place)
+        v, e = round(value, -place) + 0.0, round(error, -place)
+        return f"{v:.{decimals}f} ± {e:.{decimals}f}{suffix}"
+    tens = math.floor(math.log10(largest))
+    decimals = max(0, tens - place)
+    v, e = value / 10**tens + 0.0, error / 10**tens
+    return f"({v:.{decimals}f} ± {e:.{decimals}f})e{tens}{suffix}"
+
+
+def fitted(
+    values: dict[str, float],
+    errors: dict[str, float],
+    units: dict[str, str],
+    name: str,
+    scale: float = 1.0,
+    unit: str | None = None,
+) -> str:
+    """Parameter `name`'s value (times `scale`) ± its error, in `unit` (default:
+    its unit in `units`)."""
+    error = errors.get(name)
+    return quantity(
+        scale * values[name],
+        None if error is None else abs(scale) * error,
+        units[name] if unit is None else unit,
+    )
+
+
+def time_scale(magnitude: float, unit: str) -> tuple[float, str]:
+    """A factor and unit to quote a duration of `magnitude` in: milliseconds for
+    durations under a second in seconds, else the unit as is."""
+    if unit == "s" and abs(magnitude) < 1:
+        return 1e3, "ms"
+    return 1.0, unit

@@ -1,9 +1,30 @@
 """Creep: slow relaxation of the output driven by the input."""
 
+import dataclasses
 import math
-from typing import ClassVar
+from typing import ClassVar, cast
 
-from .base import AbstractEffect
+from ..._models.extended import ExtendedPiezo
+from .base import (
+    AbstractEffect,
+    Figure,
+    concentration,
+    conclude,
+    fitted,
+    named_units,
+    per,
+    time_scale,
+)
+
+
+# The relaxation times of the modes, fastest first (ExtendedPiezo's creep_times,
+# in seconds: the piezo family's records are in real time).
+_TIMES: tuple[float, ...] = cast(
+    tuple[float, ...],
+    next(
+        f.default for f in dataclasses.fields(ExtendedPiezo) if f.name == "creep_times"
+    ),
+)
 
 
 class Creep(AbstractEffect):
@@ -23,12 +44,36 @@ class Creep(AbstractEffect):
     )
 
     def evidence(self, where, model):
-        relative = where["after_hold"]["relative"]
-        if not math.isfinite(relative):
-            return (
-                "the recording has no holds, so the slow relaxation shows only as "
-                "a lag that grows over seconds after the input's level changes"
+        if not math.isfinite(where["after_hold"]["relative"]):
+            figure = Figure(
+                False,
+                "the recording has no holds, where a relaxation would show alone",
+            )
+        else:
+            figure = concentration(
+                where,
+                "after_hold",
+                "in the seconds after a hold begins",
+                "where the output relaxes with the drive at rest",
+            )
+        return conclude([figure])
+
+    def units(self, *, time, input, output):
+        # y += creep_i*(c_i - u) with c_i the input low-passed over the mode's time.
+        u = named_units(time, input, output)
+        return dict.fromkeys(self.parameters, per(u.output, u.input))
+
+    def reading(self, values, errors, units):
+        # After a step du the mode's term starts at -creep_i*du and decays to 0:
+        # the output moves on by creep_i*du over the mode's time.
+        modes = []
+        for name, tau in zip(self.parameters, _TIMES, strict=True):
+            scale, unit = time_scale(tau, "s")
+            modes.append(
+                f"{fitted(values, errors, units, name)} over {scale * tau:g} {unit}"
             )
         return (
-            f"residual in the 2 s after holds begin is {relative:.2f}x the overall RMS"
+            "after a step of the drive the output moves on, per unit of the step, "
+            "by " + ", ".join(modes) + " (positive: on in the step's direction, as "
+            "creep; negative: back, as relaxation)"
         )

@@ -4,7 +4,30 @@ import math
 from typing import ClassVar
 
 from ..._models.structural import StructuralBoucWen
-from .base import AbstractEffect, model_as
+from .base import (
+    ENERGY_UNIT,
+    MEAN_GAP,
+    AbstractEffect,
+    Figure,
+    concentration,
+    conclude,
+    contrast,
+    fitted,
+    model_as,
+    share,
+)
+
+
+# A fitted loss of strength or stiffness smaller than this by the end of the test
+# is not named (it is below what a cyclic test's scatter resolves).
+NEGLIGIBLE = 0.01
+# One of strength and stiffness "mainly" degrades when its loss is this multiple
+# of the other's.
+MAINLY = 2.0
+
+
+def _change(loss: float) -> str:
+    return f"down {loss:.0%}" if loss > 0 else f"up {-loss:.0%}"
 
 
 class Degradation(AbstractEffect):
@@ -24,33 +47,84 @@ class Degradation(AbstractEffect):
     )
 
     def evidence(self, where, model):
+        return f"{self._fitted(where, model)}; {self._located(where)}"
+
+    def _fitted(self, where, model) -> str:
+        """The fitted loss of strength and stiffness by the end of the test."""
         energy = max(float(where["dissipated_energy"]), 0.0)
         model = model_as(model, StructuralBoucWen, self.name)
         n = float(model.n)
         nu = max(1 + float(model.strength_degradation) * energy, 1e-2)
         eta = max(1 + float(model.stiffness_degradation) * energy, 1e-2)
         # At the end of the test: the hysteretic force saturates at nu^(-1/n) of its
-        # first level and the hysteretic tangent is 1/eta of its first value.
-        strength = 1 - nu ** (-1 / n)
-        stiffness = 1 - 1 / eta
-        if abs(strength) > 2 * abs(stiffness):
-            which = "mainly strength"
-        elif abs(stiffness) > 2 * abs(strength):
-            which = "mainly stiffness"
+        # first level and the hysteretic tangent is 1/eta of its first value. Judged
+        # as quoted (whole percent).
+        strength = round(1 - nu ** (-1 / n), 2)
+        stiffness = round(1 - 1 / eta, 2)
+        end = f"by the end of the test (dissipated energy {energy:.3g} x max|F| max|x|)"
+        if max(abs(strength), abs(stiffness)) < NEGLIGIBLE:
+            return (
+                f"{end} the fitted strength and stiffness change by under "
+                f"{NEGLIGIBLE:.0%}"
+            )
+        if abs(strength) >= MAINLY * abs(stiffness):
+            which = "mainly the strength changes"
+        elif abs(stiffness) >= MAINLY * abs(strength):
+            which = "mainly the stiffness changes"
         else:
-            which = "both strength and stiffness"
-        excess = where["late_peak_force_excess"]
-        peaks = (
-            f"; at the peaks of the last third the base model's force is off by "
-            f"{excess:.3g} on average (negative: too strong)"
-            if math.isfinite(excess)
-            else ""
-        )
+            which = "both strength and stiffness change"
         return (
-            f"{which} degrade: by the end of the test (dissipated energy "
-            f"{energy:.3g} x max|F| max|x|) the hysteretic strength is down "
-            f"{strength:.0%} and its stiffness {stiffness:.0%}; residual RMS in the "
-            f"last third of the test is {where['last_third']['relative']:.2f}x and in "
-            f"the first third {where['first_third']['relative']:.2f}x the overall"
-            f"{peaks}"
+            f"{which}: {end} the fitted hysteretic strength is {_change(strength)} "
+            f"and its stiffness {_change(stiffness)}"
+        )
+
+    def _located(self, where) -> str:
+        """What the location figures say about a change along the test."""
+        figures = [
+            concentration(
+                where,
+                "last_third",
+                "in the last third of the test",
+                "where accumulated damage shows most",
+            ),
+            contrast(
+                where,
+                "last_third",
+                "first_third",
+                "its RMS in the last third is {ratio:.2f}x that in the first",
+            ),
+        ]
+        excess = float(where["late_peak_force_excess"])
+        gap = round(share(abs(excess), where["overall_rms"]), 2)
+        if math.isfinite(excess) and gap >= MEAN_GAP:
+            off = (
+                f"by {abs(excess):.3g} on average ({gap:.2f}x the overall RMS) at the "
+                "peaks of the last third"
+            )
+            figures.append(
+                Figure(True, f"the base model's force is too large {off}")
+                if excess < 0
+                else Figure(
+                    False,
+                    f"the base model's force is too small {off}, which a weakening "
+                    "specimen does not produce",
+                )
+            )
+        return conclude(figures)
+
+    def units(self, *, time, input, output):
+        return dict.fromkeys(self.parameters, ENERGY_UNIT)
+
+    def reading(self, values, errors, units):
+        def q(name):
+            # The unit is spelled out in the words.
+            return fitted(values, errors, units, name, unit="1")
+
+        return (
+            f"the strength factor nu grows by {q('strength_degradation')} and the "
+            f"stiffness factor eta by {q('stiffness_degradation')} per max|F|·max|x| "
+            "of dissipated energy (about a quarter of an elastic-perfectly-plastic "
+            "cycle at the peak amplitude): the hysteretic force's ceiling falls as "
+            "nu^(-1/n) and its tangent as 1/eta (negative: the specimen gains "
+            "strength or stiffness)"
         )

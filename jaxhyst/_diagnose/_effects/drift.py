@@ -1,8 +1,13 @@
 """Drift: an output offset or slow wander that does not follow the input."""
 
+import math
 from typing import ClassVar
 
-from .base import AbstractEffect
+from .base import AbstractEffect, carries, conclude, fitted, named_units
+
+
+# A drift term is named only when it exceeds this many standard errors.
+SETTLED = 2.0
 
 
 class Drift(AbstractEffect):
@@ -17,5 +22,52 @@ class Drift(AbstractEffect):
     )
 
     def evidence(self, where, model):
-        share = where["slow_trend_rms"] / max(where["overall_rms"], 1e-300)
-        return f"a slow trend carries {share:.0%} of the residual"
+        trend = carries(
+            where["slow_trend_rms"],
+            where["overall_rms"],
+            "a slow trend (the residual's moving average)",
+        )
+        return conclude([trend])
+
+    def units(self, *, time, input, output):
+        # Each term is an output times a Legendre polynomial of the time in [-1, 1].
+        return dict.fromkeys(self.parameters, named_units(time, input, output).output)
+
+    def reading(self, values, errors, units):
+        # offset + trend*s + curvature*(s^2 - 1/3) + wander*(5 s^3 - 3 s)/2, s from
+        # -1 to 1: the trend moves the output 2*trend from start to end, the ends
+        # sit `curvature` above the middle, and the wander reaches +-wander at the
+        # ends with opposite bumps inside (an S). Terms within `SETTLED` standard
+        # errors of zero are named as such: an offset alone reads as an offset.
+        def q(name, scale=1.0):
+            return fitted(values, errors, units, name, scale)
+
+        def resolved(name):
+            error = errors.get(name, math.nan)
+            return math.isfinite(error) and abs(values[name]) > SETTLED * error
+
+        rises = values["trend"] >= 0
+        bends = values["curvature"] >= 0
+        shapes = {
+            "trend": f"a linear trend {'raises' if rises else 'lowers'} it by "
+            f"{q('trend', 2.0 if rises else -2.0)} from the start of the record to "
+            "its end",
+            "curvature": f"curvature puts its ends {q('curvature', 1.0 if bends else -1.0)} "
+            f"{'above' if bends else 'below'} its middle",
+            "wander": f"an S-shaped wander reaches {q('wander')} at the end (its "
+            "opposite at the start)",
+        }
+        shown = [text for name, text in shapes.items() if resolved(name)]
+        hidden = [name for name in shapes if not resolved(name)]
+        if not shown:
+            return (
+                f"a constant offset of the output, {q('offset')} (a sensor zero): its "
+                f"{', '.join(hidden)} are within {SETTLED:g} standard errors of zero"
+            )
+        text = f"the output is offset by {q('offset')} on average; " + "; ".join(shown)
+        if hidden:
+            text += (
+                f"; its {', '.join(hidden)} are within {SETTLED:g} standard errors of "
+                "zero"
+            )
+        return text

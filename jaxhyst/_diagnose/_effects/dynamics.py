@@ -8,7 +8,25 @@ import numpy as np
 
 from ..._models.base import AbstractHysteresisModel
 from ..._models.extended import ExtendedPiezo
-from .base import AbstractEffect, RefitScales, model_as
+from .base import (
+    AbstractEffect,
+    Figure,
+    RefitScales,
+    concentration,
+    conclude,
+    fitted,
+    model_as,
+    named_units,
+    per,
+)
+
+
+# The residual's dominant frequency is "near" the fitted resonance when the two are
+# within this factor of each other: the residual a missing resonance leaves peaks
+# within its half-power band (about 2*zeta*fn wide), and a factor 1.5 either side
+# spans that band for damping ratios up to about 0.3; further away, the peak is
+# something else.
+NEAR_RESONANCE = 1.5
 
 
 class Dynamics(AbstractEffect):
@@ -19,7 +37,7 @@ class Dynamics(AbstractEffect):
     name: ClassVar[str] = "dynamics"
     parameters: ClassVar[tuple[str, ...]] = ("natural_frequency", "damping_ratio")
     meaning: ClassVar[str] = (
-        "the stage's mass and damping matter: the output lags and rings after "
+        "the stage's mass and damping matter: the output lags (and may ring) after "
         "fast changes (a mechanical resonance)"
     )
     log_scaled: ClassVar[tuple[str, ...]] = ("natural_frequency", "damping_ratio")
@@ -79,7 +97,50 @@ class Dynamics(AbstractEffect):
         return True
 
     def evidence(self, where, model):
+        piezo = model_as(model, ExtendedPiezo, self.name)
+        peak = float(where["dominant_frequency_hz"])
+        resonance = float(piezo.natural_frequency)
+        if not piezo.dynamic:
+            frequency = Figure(False, "the model has no stage resonance to compare")
+        elif not (peak > 0 and resonance > 0):
+            frequency = Figure(
+                False, "the record is too short for a dominant residual frequency"
+            )
+        elif max(peak / resonance, resonance / peak) <= NEAR_RESONANCE:
+            frequency = Figure(
+                True,
+                f"the residual's dominant frequency ({peak:.3g} Hz) is near the "
+                f"fitted resonance ({resonance:.3g} Hz)",
+            )
+        else:
+            frequency = Figure(
+                False,
+                f"the residual's dominant frequency ({peak:.3g} Hz) is not at the "
+                f"fitted resonance ({resonance:.3g} Hz)",
+            )
+        fast = concentration(
+            where, "fast_rate", "at fast rates", "where a stage's inertia shows"
+        )
+        return conclude([frequency, fast], instead="the held-out gain")
+
+    def units(self, *, time, input, output):
+        # omega = 2*pi*natural_frequency in the record's time: cycles per time unit.
+        u = named_units(time, input, output)
+        return {
+            "natural_frequency": "Hz" if u.time == "s" else per("1", u.time),
+            "damping_ratio": "1",
+        }
+
+    def reading(self, values, errors, units):
+        frequency = fitted(values, errors, units, "natural_frequency")
+        zeta = values["damping_ratio"]
+        damping = fitted(values, errors, units, "damping_ratio")
+        if zeta >= 1:
+            ringing = "overdamped: the stage lags fast changes without ringing"
+        elif zeta > 0:
+            ringing = f"it rings after fast changes, quality factor 1/(2 zeta) = {1 / (2 * zeta):.3g}"
+        else:
+            ringing = "undamped"
         return (
-            f"residual dominated by {where['dominant_frequency_hz']:.3g} Hz content and "
-            f"fast rates ({where['fast_rate']['relative']:.2f}x)"
+            f"stage resonance at {frequency} with damping ratio {damping} ({ringing})"
         )

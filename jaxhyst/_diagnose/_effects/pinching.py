@@ -4,7 +4,15 @@ import itertools
 from typing import ClassVar
 
 from ..._models.structural import StructuralBoucWen
-from .base import AbstractEffect, RefitScales, model_as
+from .base import (
+    ENERGY_UNIT,
+    AbstractEffect,
+    RefitScales,
+    concentration,
+    conclude,
+    fitted,
+    model_as,
+)
 
 
 class Pinching(AbstractEffect):
@@ -56,10 +64,47 @@ class Pinching(AbstractEffect):
 
     def evidence(self, where, model):
         pinch = float(model_as(model, StructuralBoucWen, self.name).pinch)
+        why = "where a slip-lock shows"
+        located = conclude(
+            [
+                concentration(where, "near_zero_force", "near zero force", why),
+                concentration(
+                    where,
+                    "reloading_near_zero_force",
+                    "on reloading through zero force",
+                    why,
+                ),
+            ]
+        )
         return (
-            f"residual RMS near zero force is {where['near_zero_force']['relative']:.2f}x "
-            f"and on reloading through it "
-            f"{where['reloading_near_zero_force']['relative']:.2f}x the overall; the "
-            f"fitted slip-lock takes up to {pinch:.0%} of the hysteretic stiffness "
-            "there"
+            f"the fitted slip-lock takes up to {pinch:.0%} of the hysteretic "
+            f"stiffness near zero force; {located}"
+        )
+
+    def units(self, *, time, input, output):
+        # zeta1 = pinch*(1 - exp(-pinch_rate*e)) is a share of the hysteretic rate;
+        # the slip sits at pinch_shift*zu over a width pinch_width*zu*(...), zu the
+        # saturation displacement; e is counted in max|F|*max|x|.
+        return {
+            "pinch": "1",
+            "pinch_shift": "zu",
+            "pinch_width": "zu",
+            "pinch_rate": ENERGY_UNIT,
+        }
+
+    def reading(self, values, errors, units):
+        def q(name, scale=1.0, unit=None):
+            return fitted(values, errors, units, name, scale, unit)
+
+        shape = (
+            f"near z = {q('pinch_shift')} on reloading (zu: the hysteretic "
+            f"saturation displacement), over a width {q('pinch_width')} times "
+            f"(lambda + zeta1), grown in as 1 - exp(-pinch_rate*e) with e the "
+            f"dissipated energy (pinch_rate = {q('pinch_rate')})"
+        )
+        if values["pinch"] == 0:
+            return f"no slip-lock (pinch = 0), so its shape is inert: {shape}"
+        return (
+            f"a slip-lock takes up to {q('pinch', 100.0, '%')} of the hysteretic "
+            f"stiffness {shape}"
         )

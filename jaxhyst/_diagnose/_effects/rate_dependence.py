@@ -1,9 +1,20 @@
 """Rate dependence: the loop changes with how fast the input moves."""
 
+import math
 from typing import ClassVar
 
 from ..._models.extended import ExtendedPiezo
-from .base import AbstractEffect, RefitScales, model_as
+from .base import (
+    AbstractEffect,
+    RefitScales,
+    concentration,
+    conclude,
+    contrast,
+    fitted,
+    model_as,
+    named_units,
+    time_scale,
+)
 
 
 class RateDependence(AbstractEffect):
@@ -44,7 +55,55 @@ class RateDependence(AbstractEffect):
         return models
 
     def evidence(self, where, model):
+        return conclude(
+            [
+                concentration(where, "fast_rate", "at fast rates"),
+                concentration(where, "slow_rate", "at slow rates"),
+                contrast(
+                    where,
+                    "fast_rate",
+                    "slow_rate",
+                    "its RMS at fast rates is {ratio:.2f}x that at slow rates",
+                ),
+                contrast(
+                    where,
+                    "slow_rate",
+                    "fast_rate",
+                    "its RMS at slow rates is {ratio:.2f}x that at fast rates",
+                ),
+            ]
+        )
+
+    def units(self, *, time, input, output):
+        # Rates enter relative to the record's RMS drive rate (rate_scale), so the
+        # gains are pure numbers; viscous*(u - z)/(viscous_time*rate_scale) is an
+        # output.
+        u = named_units(time, input, output)
+        return {
+            "rate_gain": "1",
+            "viscous": u.output,
+            "rate_amplitude": "1",
+            "viscous_time": u.time,
+        }
+
+    def reading(self, values, errors, units):
+        def percent(name, factor=1.0):
+            return fitted(values, errors, units, name, 100 * factor, "%")
+
+        # At the record's RMS drive rate |udot|/rate_scale = 1: hdot is scaled by
+        # 1 + rate_gain and A1 by 1 + rate_amplitude*log(2).
+        words = (
+            "at the record's RMS drive rate the hysteretic rate changes by "
+            f"{percent('rate_gain')} (rate_gain, linear in the rate) and its gain "
+            f"A1 by {percent('rate_amplitude', math.log(2))} (rate_amplitude, "
+            "logarithmic in the rate)"
+        )
+        if values["viscous"] == 0:
+            return f"{words}; no viscous term (viscous = 0, so viscous_time is inert)"
+        scale, unit = time_scale(values["viscous_time"], units["viscous_time"])
         return (
-            f"residual RMS at fast rates is {where['fast_rate']['relative']:.2f}x and at "
-            f"slow rates {where['slow_rate']['relative']:.2f}x the overall"
+            f"{words}; a viscous term adds viscous*udot/(RMS rate) to the output, "
+            f"{fitted(values, errors, units, 'viscous')} at that rate, saturating "
+            "for changes faster than "
+            f"viscous_time = {fitted(values, errors, units, 'viscous_time', scale, unit)}"
         )
