@@ -246,6 +246,10 @@ def run_diagnosis(record: jh.Recording, seed: int) -> dict:
         "findings": summary["findings"],
         "final_parameters": summary["final"]["parameters"],
         "ambiguities": summary["ambiguities"],
+        "undecided": summary["undecided"],
+        "advice": summary["advice"],
+        "steps": summary["steps"],
+        "remainder": summary["remainder"],
         "location": summary["location"],
         "screened": [
             {
@@ -408,8 +412,24 @@ def _print_diagnosis(label: str, diag: dict) -> None:
             f"    round {entry['round']}: {entry['effect']} score "
             f"{entry['statistic']:.0f}/{entry['dof']} dof{held}: {verdict}"
         )
+    for finding in diag["findings"]:
+        print(f"  {finding['effect']}: {finding['reading']}")
+        rivals = ", ".join(
+            f"{r['effect']} {r['margin_sigma']:+.1f} SE" for r in finding["rivals"]
+        )
+        verdict = "decided" if finding["decided"] else "UNDECIDED"
+        print(f"    rivals ({verdict}): {rivals or 'none'}")
+        if finding.get("moved"):
+            print(f"    {finding['moved']}")
     for text in diag["ambiguities"]:
         print(f"  ambiguity: {text}")
+    for advice in diag["advice"]:
+        print(
+            f"  advice: {' vs '.join(advice['separates'])}: {advice['input']} "
+            f"({advice['difference_sigma']:.1f} sigma apart there, "
+            f"{advice['difference_sigma_on_this_record']:.1f} on this record)"
+        )
+    print(f"  what is left: {diag['remainder']['sentence']}")
 
 
 def main(argv=None) -> int:

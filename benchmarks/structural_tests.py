@@ -330,7 +330,7 @@ def run_record(name, args, api, opensees, key) -> dict:
             "heldout_nrmsd": final_rms / scale,
         },
         "unexplained": [u.description for u in diagnosis.unexplained],
-        "ambiguities": list(diagnosis.ambiguities),
+        "ambiguities": [a.statement for a in diagnosis.ambiguities],
         "plain_fit": {
             "model": plain["model"],
             "parameters": plain["parameters"],

@@ -524,7 +524,10 @@ def _final_parameters_text(finding: Finding) -> str:
 
 def _rivals_text(finding: Finding, scale: float, s: str) -> str:
     if not finding.rivals:
-        return "none (no other effect passed held-out validation)."
+        return (
+            "none (no other effect passed held-out validation or was significant "
+            "without being refitted)."
+        )
     parts = [
         f"{r.effect} (held-out RMSE {_number(scale * r.heldout_rmse)}{s}, "
         + (
@@ -719,8 +722,9 @@ def diagnosis_markdown(
         out += [f"- {a.statement}" for a in diagnosis.ambiguities]
     else:
         out.append(
-            "None: every finding beat each rival that also passed validation by more "
-            "than this record resolves."
+            "None: every finding beat each of its rivals (the other effects that "
+            "passed held-out validation, or were significant but not refitted) by "
+            "more than this record resolves."
         )
     if diagnosis.advice:
         out += ["", "## Tests that would decide", ""]

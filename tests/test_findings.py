@@ -1,6 +1,7 @@
 """Findings an engineer can trust: standard errors, rivals, advice inputs, progress."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -150,3 +151,14 @@ def test_a_drift_that_is_only_an_offset_reads_as_an_offset():
     errors["trend"] = 0.001
     text = jh.Drift().reading(values, errors, units)
     assert "a linear trend raises it by 0.02" in text and "constant offset" not in text
+
+
+def test_drift_evidence_names_an_offset_at_rest_only_when_the_numbers_show_one():
+    t = np.linspace(0.0, 10.0, 10001)
+    u = np.where(t < 3.0, 0.0, 75 * (1 - np.cos(2 * np.pi * (t - 3.0))))
+    noise = 0.01 * np.random.default_rng(3).standard_normal(t.size)
+    offset = jh.locate(t, u, np.where(t < 3.0, -1.6, 0.0) + noise)
+    text = jh.Drift().evidence(offset, None)
+    assert re.search(r"near-constant -1\.(59|6)\b", text) and "sensor zero" in text
+    plain = jh.locate(t, u, noise)
+    assert "near-constant" not in jh.Drift().evidence(plain, None)

@@ -80,9 +80,9 @@ def cannot_tell_rivals(kept: str, rivals: list[Rival], kept_rmse: float) -> Ambi
     names = ", ".join(r.effect for r in rivals)
     return Ambiguity(
         f"cannot tell {kept} from {names} on this recording: refitted in its place, "
-        f"each explains the held-out data within what this record resolves (held-out "
-        f"RMSE {kept} {kept_rmse:.3g}; {figures}; resolved needs "
-        f"{RESOLVED_SIGMA:.0f} standard errors). {kept} is kept for the fit, but the "
+        f"none lost by more than the {RESOLVED_SIGMA:.0f} standard errors this "
+        f"comparison needs (held-out RMSE {kept} {kept_rmse:.3g}; {figures}). {kept} "
+        "is kept for the fit (it was adopted first), but the "
         "record does not show that it is the explanation; see the advice for a test "
         "that would.",
         (kept, *(r.effect for r in rivals)),

@@ -106,6 +106,10 @@ class _State(eqx.Module):
     passed_trials: dict[str, tuple[_Trial, dict[str, Any]]] = eqx.field(
         default_factory=dict
     )
+    # Effects significant in some round but never refitted (not among the
+    # strongest), with their latest score: rivals too, refitted in a finding's
+    # place from the score test's step.
+    untried: dict[str, Score] = eqx.field(default_factory=dict)
     # Pairs of fitted models the record cannot tell apart (for the advice).
     contrasts: tuple["_Contrast", ...] = ()
     noise: NoiseModel | None = None
@@ -609,10 +613,20 @@ def _forward(ctx: _Context, state: _State) -> _State:
         scores, trials = _refit_candidates(ctx, state, scores)
         where = ctx.family.locate(ctx.recording, ctx.y - state.predicted)
         passed = {t.score.effect: (t, where) for t in trials if t.validation.accepted}
+        tried = {t.score.effect for t in trials}
+        untried = {
+            name: score
+            for name, score in {
+                **state.untried,
+                **{c.effect: c for c in scores if c.significant},
+            }.items()
+            if name not in tried and name not in state.passed_trials
+        }
         state = dataclasses.replace(
             state,
             rounds=state.rounds + (scores,),
             passed_trials={**state.passed_trials, **passed},
+            untried=untried,
         )
         if not passed:
             better = _better_base(ctx, state, trials)
@@ -716,7 +730,9 @@ def _rivals(ctx: _Context, state: _State) -> _State:
     while position < len(state.findings):
         finding = state.findings[position]
         adopted_effect = family.effect(finding.effect)
-        others = [n for n in state.passed_trials if n not in state.adopted]
+        others = [
+            n for n in (*state.passed_trials, *state.untried) if n not in state.adopted
+        ]
         if others:
             ctx.progress.say(
                 f"testing {finding.effect} against its rivals: {', '.join(others)}"
@@ -724,14 +740,20 @@ def _rivals(ctx: _Context, state: _State) -> _State:
         rivals: list[tuple[Rival, AbstractHysteresisModel]] = []
         replaced = None
         for name in others:
-            trial, where_then = state.passed_trials[name]
             alternative = family.effect(name)
             names = tuple(
                 p for p in state.free if p not in adopted_effect.parameters
             ) + tuple(p for p in alternative.parameters if p not in state.free)
-            start = alternative.take_from(
-                adopted_effect.switch_off(state.current), trial.model
-            )
+            without = adopted_effect.switch_off(state.current)
+            if name in state.passed_trials:
+                trial, where_then = state.passed_trials[name]
+                start = alternative.take_from(without, trial.model)
+            else:
+                trial, where_then = None, None
+                scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
+                start, _ = _best_start(
+                    ctx, alternative, without, state.untried[name].step, scales
+                )
             key = jax.random.fold_in(
                 ctx.key, 7919 + 97 * position + family.effect_names.index(name)
             )
@@ -743,7 +765,12 @@ def _rivals(ctx: _Context, state: _State) -> _State:
                 ctx, state, state.predicted, swapped_pred
             )
             margin = (rival_mse - kept_mse) / se if se > 0 else 0.0
-            if margin < -RESOLVED_SIGMA and replacements < len(family.catalogue):
+            if (
+                margin < -RESOLVED_SIGMA
+                and trial is not None
+                and where_then is not None
+                and replacements < len(family.catalogue)
+            ):
                 replaced = (
                     trial,
                     where_then,

@@ -3,11 +3,43 @@
 import math
 from typing import ClassVar
 
-from .base import AbstractEffect, carries, conclude, fitted, named_units
+from .._locate import MIN_FRACTION
+from .base import (
+    AbstractEffect,
+    Figure,
+    carries,
+    conclude,
+    fitted,
+    named_units,
+)
 
 
 # A drift term is named only when it exceeds this many standard errors.
 SETTLED = 2.0
+
+
+# The residual while the input holds is a constant offset when its mean carries
+# at least this share of its RMS.
+CONSTANT = 0.9
+
+
+def _at_rest(where) -> Figure:
+    """Whether the residual while the input holds is a near-constant offset (time
+    records only: `locate`'s "holding" category)."""
+    holding = where.get("holding")
+    if holding is None or not holding["fraction"] > MIN_FRACTION:
+        return Figure(False, "")
+    mean, rms = float(holding["mean"]), float(holding["rms"])
+    if not (math.isfinite(mean) and rms > 0):
+        return Figure(False, "")
+    if round(abs(mean) / rms, 2) >= CONSTANT:
+        return Figure(
+            True,
+            f"while the input holds ({holding['fraction']:.0%} of the record) the "
+            f"residual is a near-constant {mean:.3g} (its RMS {rms:.3g}): an offset "
+            "of the output at rest, such as a sensor zero, not hysteresis",
+        )
+    return Figure(False, "")
 
 
 class Drift(AbstractEffect):
@@ -27,7 +59,7 @@ class Drift(AbstractEffect):
             where["overall_rms"],
             "a slow trend (the residual's moving average)",
         )
-        return conclude([trend])
+        return conclude([_at_rest(where), trend])
 
     def units(self, *, time, input, output):
         # Each term is an output times a Legendre polynomial of the time in [-1, 1].
