@@ -162,3 +162,39 @@ def test_drift_evidence_names_an_offset_at_rest_only_when_the_numbers_show_one()
     assert re.search(r"near-constant -1\.(59|6)\b", text) and "sensor zero" in text
     plain = jh.locate(t, u, noise)
     assert "near-constant" not in jh.Drift().evidence(plain, None)
+
+
+def test_a_gain_confined_to_the_fitted_samples_is_reported_as_cannot_tell():
+    from jaxhyst._diagnose._ambiguity import confined
+
+    def validation(fit_after, held_after, bic=-50.0, accepted=False):
+        return jh.Validation(
+            heldout_rmse_before=0.10,
+            heldout_rmse_after=held_after,
+            fit_rmse_before=0.16,
+            fit_rmse_after=fit_after,
+            heldout_margin_mse=5e-4,
+            heldout_resolution_mse=5e-4,
+            effective_samples_heldout=500.0,
+            bic_change=bic,
+            score_statistic=3e4,
+            score_dof=3,
+            log10_p=-300.0,
+            accepted=accepted,
+        )
+
+    # A switch-on transient fixed on the fitted samples, nothing on the held-out.
+    found = confined([("rate_dependence", validation(0.11, 0.0999))])
+    assert len(found) == 1 and found[0].undecided == ("rate_dependence",)
+    assert "lowered the error on the fitted samples by 53%" in found[0].statement
+    # Not when the fitted gain is small, the criterion disagrees, the held-out data
+    # confirm it, it was accepted, or it is already undecided.
+    assert confined([("creep", validation(0.159, 0.0999))]) == []
+    assert confined([("creep", validation(0.11, 0.0999, bic=5.0))]) == []
+    assert confined([("creep", validation(0.11, 0.09))]) == []
+    assert confined([("creep", validation(0.11, 0.104))]) == []  # worse held out
+    assert confined([("creep", validation(0.11, 0.0999, accepted=True))]) == []
+    assert (
+        confined([("creep", validation(0.11, 0.0999))], already=frozenset({"creep"}))
+        == []
+    )

@@ -162,8 +162,9 @@ def test_a_gain_the_record_cannot_resolve_is_said_so():
 
     # 29 % of the held-out MSE, under a resolution of 2.1: the data cannot tell.
     (message,) = unresolved([("degradation", validation(0.84, 2.1))])
-    assert message.startswith("cannot tell whether degradation is present")
-    assert "29%" in message and "8 effective" in message
+    assert message.statement.startswith("cannot tell whether degradation is present")
+    assert message.undecided == ("degradation",)
+    assert "29%" in message.statement and "8 effective" in message.statement
     # Not said: a gain the record resolves (then it was rejected for another
     # reason), a gain below the floor, a worse fit, an accepted candidate.
     assert unresolved([("degradation", validation(0.84, 0.1))]) == []

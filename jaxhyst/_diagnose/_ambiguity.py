@@ -70,6 +70,42 @@ def unresolved(
     return messages
 
 
+def confined(
+    rejected: list[tuple[str, Validation]],
+    *,
+    min_gain: float = 0.05,
+    already: frozenset[str] = frozenset(),
+) -> list[Ambiguity]:
+    """Statements for rejected candidates that lowered the error on the fitted
+    samples by at least `min_gain` of its MSE, with the information criterion in
+    favour, but not on the held-out samples: their evidence lies where the held-out
+    data do not reach (a one-off event such as a switch-on transient), so the
+    record cannot confirm them (nor refute them: a held-out loss beyond its
+    resolution rules a candidate out). Effects in `already` are skipped."""
+    messages = []
+    for effect, v in rejected:
+        if v.accepted or effect in already or v.bic_change >= 0:
+            continue
+        before = v.fit_rmse_before**2
+        gain = before - v.fit_rmse_after**2
+        held = v.heldout_rmse_before**2 - v.heldout_rmse_after**2
+        if gain < min_gain * before or held > v.heldout_margin_mse:
+            continue
+        if held < -v.heldout_resolution_mse:  # the held-out data speak against it
+            continue
+        statement = (
+            f"cannot tell whether {effect} is present: adding it lowered the error on "
+            f"the fitted samples by {gain / before:.0%} (the information criterion "
+            f"agrees) but the held-out error by only "
+            f"{held / v.heldout_rmse_before**2:.1%}: what it explains lies where the "
+            "held-out data do not reach (a one-off event, such as the switch-on, "
+            "cannot be checked on data it was not fitted to). Repeat the event, or "
+            "see the advice for a test that would show it."
+        )
+        messages.append(Ambiguity(statement, (effect,)))
+    return messages
+
+
 def cannot_tell_rivals(kept: str, rivals: list[Rival], kept_rmse: float) -> Ambiguity:
     """The record cannot tell `kept` from `rivals` (each refitted in its place,
     within the held-out comparison's resolution)."""

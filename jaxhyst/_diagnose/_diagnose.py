@@ -26,7 +26,7 @@ from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
 from .._simulate import RK4
 from .._swarm import MPSO
-from ._ambiguity import cannot_tell_rivals, standing_in, unresolved
+from ._ambiguity import cannot_tell_rivals, confined, standing_in, unresolved
 from ._effects.base import AbstractEffect, RefitScales
 from ._families import AbstractFamily, PiezoFamily
 from ._locate import effective_samples
@@ -642,9 +642,12 @@ def _forward(ctx: _Context, state: _State) -> _State:
                 )
                 continue
             near = _near_misses(ctx, state, column, trials) if trials else []
-            near += unresolved(
-                [(t.score.effect, t.validation) for t in trials],
+            rejected = [(t.score.effect, t.validation) for t in trials]
+            near += unresolved(rejected, min_gain=ctx.policy.min_heldout_gain)
+            near += confined(
+                rejected,
                 min_gain=ctx.policy.min_heldout_gain,
+                already=frozenset(e for a in near for e in a.undecided),
             )
             by_effect = {t.score.effect: t for t in trials}
             contrasts = tuple(
