@@ -132,6 +132,9 @@ def run_case(spec, index, args, diagnose) -> dict[str, Any]:
     result.update(
         named=named,
         exact=set(named) == set(case.effects),
+        # Effects the diagnosis says this record cannot decide on.
+        undecided=sorted(diagnosis.undecided),
+        decided=all(f.decided for f in diagnosis.findings),
         final_rmse=final,
         final_over_sigma=final / case.sigma,
         noise_sigma_estimate=float(getattr(diagnosis, "noise_sigma", math.nan)),

@@ -97,10 +97,11 @@ def confined(
             f"cannot tell whether {effect} is present: adding it lowered the error on "
             f"the fitted samples by {gain / before:.0%} (the information criterion "
             f"agrees) but the held-out error by only "
-            f"{held / v.heldout_rmse_before**2:.1%}: what it explains lies where the "
-            "held-out data do not reach (a one-off event, such as the switch-on, "
-            "cannot be checked on data it was not fitted to). Repeat the event, or "
-            "see the advice for a test that would show it."
+            f"{held / v.heldout_rmse_before**2:.1%}: what it explains does not carry "
+            "over to the held-out data, so it is either confined to a one-off part of "
+            "the fitted samples (a switch-on transient cannot be checked on data it "
+            "was not fitted to) or fitted noise. Repeat the event, or see the advice "
+            "for a test that would show it."
         )
         messages.append(Ambiguity(statement, (effect,)))
     return messages
