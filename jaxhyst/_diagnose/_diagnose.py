@@ -774,15 +774,8 @@ def _rivals(ctx: _Context, state: _State) -> _State:
                 and where_then is not None
                 and replacements < len(family.catalogue)
             ):
-                replaced = (
-                    trial,
-                    where_then,
-                    alternative,
-                    swapped,
-                    swapped_pred,
-                    names,
-                )
-                replaced += (kept_mse, rival_mse)
+                replaced = (trial, where_then, alternative, swapped, swapped_pred)
+                replaced += (names, kept_mse, rival_mse)
                 break
             rivals.append((Rival(name, math.sqrt(rival_mse), margin), swapped))
         if replaced is not None:
