@@ -611,8 +611,14 @@ def _forward(ctx: _Context, state: _State) -> _State:
             # Refits (this round's and any later stage's) use these scales.
             state = dataclasses.replace(state, natural=natural)
         scores, trials = _refit_candidates(ctx, state, scores)
-        where = ctx.family.locate(ctx.recording, ctx.y - state.predicted)
-        passed = {t.score.effect: (t, where) for t in trials if t.validation.accepted}
+        accepted = [t for t in trials if t.validation.accepted]
+        # Where the mismatch is now, kept with each trial that passed.
+        where = (
+            ctx.family.locate(ctx.recording, ctx.y - state.predicted)
+            if accepted
+            else {}
+        )
+        passed = {t.score.effect: (t, where) for t in accepted}
         tried = {t.score.effect for t in trials}
         untried = {
             name: score
