@@ -12,7 +12,7 @@ are synthetic: 750 Hz, force [N] -> displacement [m].
    as fitting all four, at a quarter of the simulation cost, and their spread gives
    the noise). `jh.fit_periodic` then runs
    - MPSO (64 particles, up to 150 iterations) in a log-scaled box set by the data's
-     scales (`jh.oscillator_space`), on the first 2 s of the period after a 1 s
+     scales (`jh.ParameterSpace.default`), on the first 2 s of the period after a 1 s
      warm-up, input cubic-interpolated at 750 Hz, RK4 with 2 substeps;
    - Levenberg-Marquardt on the whole period at that resolution;
    - Levenberg-Marquardt on the whole period with the input upsampled x4 by FFT
@@ -150,7 +150,7 @@ def identify(bench, seed: int, repeats: int):
     returns (fit, average, space, seconds per run: swarm start to fitted model)."""
     average = jh.average_periods(bench.train, PERIOD, skip=1)
     template = jh.HystereticOscillator(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, nu=1.0)
-    space = jh.oscillator_space(template, average.recording)
+    space = jh.ParameterSpace.default(template, average.recording)
     seconds, fit = [], None
     for run in range(max(1, repeats)):
         fit = jh.fit_periodic(

@@ -21,8 +21,17 @@ standard deviation 0.1 % of max|y| (fixed seed).
    iterations + 1 a multiple of 20 no pass is computed beyond the count), twice: the first call gives the compile time, the second the steady
    seconds per iteration, from which the full schedule (G iterations plus the initial
    evaluation) is EXTRAPOLATED.
+3. "jaxhyst fit (CLI)": the command line on the same NPZ recording, `jaxhyst fit
+   RECORDING --json OUT` (its defaults, as 1.), each run a fresh process whose wall time
+   the parent measures from start to exit, with the persistent compilation cache
+   (`JAXHYST_CACHE_DIR`) in a fresh temporary folder: first with the folder EMPTY (a
+   cold start: everything compiled, then written to the cache), then again with the
+   same folder WARM (the compiled programs loaded from it). `--cli-repeats` pairs
+   (default 3), each with its own new folder; the table gives the medians, the RMSE
+   of the fit relative to the noise sigma, and whether the warm fits equal the cold
+   ones. (The child of 1. never enables the cache: a library import does not.)
 
-Neither child sets XLA_FLAGS (one CPU device; XLA multithreads within it) unless
+No child sets XLA_FLAGS (one CPU device; XLA multithreads within it) unless
 `--host-devices K` is given.
 
 Run `python benchmarks/fit_speed.py`; `--json PATH` saves the results.
@@ -69,6 +78,12 @@ def parse_args(argv=None):
         type=int,
         default=None,
         help="set XLA_FLAGS=--xla_force_host_platform_device_count=K in the children",
+    )
+    parser.add_argument(
+        "--cli-repeats",
+        type=int,
+        default=3,
+        help="cold/warm pairs of fresh-process 'jaxhyst fit' runs (0: skip them)",
     )
     parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
     parser.add_argument(
@@ -236,6 +251,90 @@ def run_child(args, kind):
     return result
 
 
+def cli_command():
+    """The `jaxhyst` console script beside this interpreter, else `python -m`."""
+    name = "jaxhyst.exe" if os.name == "nt" else "jaxhyst"
+    script = os.path.join(os.path.dirname(sys.executable), name)
+    if os.path.isfile(script):
+        return [script]
+    return [sys.executable, "-m", "jaxhyst"]
+
+
+def cache_size(folder):
+    entries = [e for e in os.scandir(folder) if e.name.endswith("-cache")]
+    return len(entries), sum(e.stat().st_size for e in entries)
+
+
+def run_cli_fit(args, cache_dir, out):
+    """One fresh `jaxhyst fit` process with JAXHYST_CACHE_DIR=cache_dir."""
+    cmd = [*cli_command(), "fit", args.recording, "--json", out, "--force"]
+    cmd += ["--seed", str(args.seed)]
+    env = dict(os.environ, JAXHYST_CACHE_DIR=cache_dir)
+    env.pop("XLA_FLAGS", None)
+    if args.host_devices:
+        env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.host_devices}"
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    wall_s = time.perf_counter() - start
+    if proc.returncode != 0:
+        raise SystemExit(
+            f"'jaxhyst fit' failed with exit status {proc.returncode}:\n"
+            + proc.stderr[-2000:]
+        )
+    with open(out) as f:
+        data = json.load(f)
+    entries, size = cache_size(cache_dir)
+    return {
+        "wall_s": wall_s,
+        "identify_total_s": float(data["timing"]["total_s"]),
+        "rmse": float(data["metrics"]["rmse"]),
+        "parameters": data["parameters"],
+        "cache_entries": entries,
+        "cache_bytes": size,
+        "warnings": [ln for ln in proc.stderr.splitlines() if "arning" in ln],
+    }
+
+
+def median(values):
+    values = sorted(values)
+    mid = len(values) // 2
+    return values[mid] if len(values) % 2 else 0.5 * (values[mid - 1] + values[mid])
+
+
+def cli_cold_warm(args, folder, sigma):
+    """`--cli-repeats` pairs: a fresh cache folder, a cold run, then a warm run."""
+    runs = {"empty": [], "warm": []}
+    for i in range(args.cli_repeats):
+        cache_dir = os.path.join(folder, f"jax-cache-{i}")
+        os.mkdir(cache_dir)
+        for state in ("empty", "warm"):
+            log(f"cli: jaxhyst fit, {state} cache, pair {i + 1}/{args.cli_repeats}")
+            out = os.path.join(folder, f"fit-{i}-{state}.json")
+            runs[state].append(run_cli_fit(args, cache_dir, out))
+    summary = {}
+    for state, results in runs.items():
+        summary[state] = {
+            "median_wall_s": median([r["wall_s"] for r in results]),
+            "median_identify_total_s": median([r["identify_total_s"] for r in results]),
+            "median_rmse_over_sigma": median([r["rmse"] for r in results]) / sigma,
+            "cache_entries_after": [r["cache_entries"] for r in results],
+            "cache_bytes_after": [r["cache_bytes"] for r in results],
+        }
+    return {
+        "command": " ".join(
+            [*cli_command(), "fit", "RECORDING", "--json", "OUT", "--force"]
+        ),
+        "repeats": args.cli_repeats,
+        "runs": runs,
+        "summary": summary,
+        "speedup": summary["empty"]["median_wall_s"] / summary["warm"]["median_wall_s"],
+        "warm_fit_equals_cold": all(
+            w["parameters"] == c["parameters"] and w["rmse"] == c["rmse"]
+            for c, w in zip(runs["empty"], runs["warm"])
+        ),
+    }
+
+
 def versions():
     out = {}
     for name in ("jaxhyst", "jax", "jaxlib", "numpy", "equinox", "optimistix"):
@@ -283,6 +382,9 @@ def main(argv=None):
         args.recording = os.path.join(folder, "paper-u1.npz")
         run_child(args, "make")
         fit = run_child(args, "fit")
+        cli = None
+        if args.cli_repeats > 0:
+            cli = cli_cold_warm(args, folder, fit["sigma"])
     paper = None
     if not args.skip_paper:
         log(
@@ -324,6 +426,33 @@ def main(argv=None):
         f"  final RMSE / sigma = {fit['rmse_over_sigma']:.4f}   (RMSE vs the clean "
         f"truth / sigma = {fit['rmse_vs_clean_over_sigma']:.4f})"
     )
+    if cli is not None:
+        print()
+        print(
+            f"jaxhyst fit (CLI), fresh process start -> exit, median of "
+            f"{cli['repeats']}, JAXHYST_CACHE_DIR a new temporary folder per pair:"
+        )
+        print(
+            f"  {'cache':<8}{'wall (s)':>10}{'identify (s)':>14}{'RMSE/sigma':>12}"
+            f"{'entries':>9}{'MB':>7}"
+        )
+        for state, row in cli["summary"].items():
+            print(
+                f"  {state:<8}{row['median_wall_s']:>10.2f}"
+                f"{row['median_identify_total_s']:>14.2f}"
+                f"{row['median_rmse_over_sigma']:>12.4f}"
+                f"{row['cache_entries_after'][0]:>9d}"
+                f"{row['cache_bytes_after'][0] / 1e6:>7.2f}"
+            )
+        print(
+            f"  warm start is {cli['speedup']:.2f}x faster; warm fits identical to "
+            f"the cold ones: {'yes' if cli['warm_fit_equals_cold'] else 'NO'}"
+        )
+        warned = [
+            w for state in cli["runs"].values() for r in state for w in r["warnings"]
+        ]
+        if warned:
+            print(f"  warnings on stderr: {warned[0]!r} ({len(warned)} in all)")
     if paper is not None:
         print()
         print(
@@ -355,6 +484,7 @@ def main(argv=None):
                     "machine": machine,
                     "settings": vars(args),
                     "fit": fit,
+                    "cli": cli,
                     "paper": paper,
                     "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
                 },

@@ -359,13 +359,7 @@ def search_space(template, recording, beta_gamma_bound=None):
     """`ParameterSpace.default` (gauge A1 = 1/max|u|), with beta1, gamma1 in
     +-beta_gamma_bound / max|u| when that is given."""
     su = float(np.max(np.abs(recording.u)))
-    space = jh.ParameterSpace.default(
-        template,
-        su,
-        float(np.max(np.abs(recording.y))),
-        recording.duration,
-        sample_rate=recording.sample_rate,
-    )
+    space = jh.ParameterSpace.default(template, recording)
     if beta_gamma_bound is None:
         return space
     bounds = {

@@ -198,20 +198,17 @@ class Bench:
         import numpy as np
 
         import jaxhyst as jh
-        from jaxhyst._identify import _swarm_problem
+        from jaxhyst._identification._problem import swarm_problem as _swarm_problem
 
         self.dtype_name = dtype_name
         self.np_dtype = np.dtype(dtype_name)
         model = jh.PiezoBoucWen.paper_table4(3)
         path64 = jh.sample(jh.paper_u1(), samples / DURATION)
         y64 = jh.simulate(model, path64, jh.RK4())
-        space = jh.ParameterSpace.default(
-            model,
-            float(jnp.max(jnp.abs(path64.values))),
-            float(jnp.max(jnp.abs(y64))),
-            DURATION,
-            gauge=True,
+        record = jh.Recording(
+            np.asarray(path64.times), np.asarray(path64.values), np.asarray(y64)
         )
+        space = jh.ParameterSpace.default(model, record, gauge=True)
         dtype = jnp.dtype(dtype_name)
         # float32 runs: the input path (and so the simulation) and the swarm in float32.
         path = jh.InputPath(path64.t0, path64.dt, path64.values.astype(dtype))

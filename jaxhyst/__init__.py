@@ -2,16 +2,7 @@
 
 import importlib.metadata
 
-from ._benchmark_fit import (
-    PeriodicAverage as PeriodicAverage,
-    PeriodicSimulation as PeriodicSimulation,
-    average_periods as average_periods,
-    bandlimited_upsample as bandlimited_upsample,
-    fit_periodic as fit_periodic,
-    oscillator_space as oscillator_space,
-    periodic_identifiability as periodic_identifiability,
-    periodic_problem as periodic_problem,
-)
+from ._cache import enable_compilation_cache as enable_compilation_cache
 from ._datasets import (
     STRUCTURAL_TESTS as STRUCTURAL_TESTS,
     BoucWenBenchmark as BoucWenBenchmark,
@@ -51,18 +42,44 @@ from ._diagnose._results import (
     Unexplained as Unexplained,
     Validation as Validation,
 )
-from ._identify import (
+from ._identification._identifiability import (
+    Identifiability as Identifiability,
+    covariance as covariance,
+    identifiability as identifiability,
+    output_jacobian as output_jacobian,
+)
+from ._identification._identify import (
+    Fit as Fit,
+    PolishStage as PolishStage,
+    RecordingMetrics as RecordingMetrics,
+    identify as identify,
+    joint_scales as joint_scales,
+    refine as refine,
+    search as search,
+)
+from ._identification._periodic import (
+    PeriodicAverage as PeriodicAverage,
+    PeriodicSimulation as PeriodicSimulation,
+    SteadyOutput as SteadyOutput,
+    average_periods as average_periods,
+    bandlimited_upsample as bandlimited_upsample,
+    fit_periodic as fit_periodic,
+    oscillator_space as oscillator_space,
+    periodic_identifiability as periodic_identifiability,
+    periodic_problem as periodic_problem,
+)
+from ._identification._polish import (
     AbstractOptimistixPolish as AbstractOptimistixPolish,
     AbstractPolish as AbstractPolish,
     AdamPolish as AdamPolish,
     BFGSPolish as BFGSPolish,
-    Fit as Fit,
-    Identifiability as Identifiability,
     LevenbergMarquardtPolish as LevenbergMarquardtPolish,
     PolishResult as PolishResult,
+)
+from ._identification._problem import (
     Problem as Problem,
-    identifiability as identifiability,
-    identify as identify,
+    RecordSimulation as RecordSimulation,
+    stack_problems as stack_problems,
     swarm_samples_per_step as swarm_samples_per_step,
 )
 from ._inputs import (
@@ -81,7 +98,10 @@ from ._metrics import (
 )
 from ._models.base import (
     AbstractHysteresisModel as AbstractHysteresisModel,
+    BoucWenShape as BoucWenShape,
+    DataScales as DataScales,
     Drive as Drive,
+    SearchBox as SearchBox,
 )
 from ._models.bouc_wen import (
     BoucWen as BoucWen,
@@ -132,6 +152,11 @@ from ._stability import (
     StabilityReport as StabilityReport,
     bibo_stability as bibo_stability,
     is_bibo_stable as is_bibo_stable,
+)
+from ._status import (
+    RESULTS as RESULTS,
+    status_message as status_message,
+    status_name as status_name,
 )
 from ._swarm import (
     MPSO as MPSO,

@@ -20,6 +20,7 @@ from typing import NamedTuple, NoReturn, cast
 import jax
 import numpy as np
 
+from ._cache import enable_compilation_cache
 from ._diagnose._diagnose import diagnose
 from ._diagnose._families import (
     EFFECT_NAMES,
@@ -27,7 +28,7 @@ from ._diagnose._families import (
     PiezoFamily,
     StructuralFamily,
 )
-from ._identify import identify
+from ._identification._identify import identify, joint_scales
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from ._opensees import opensees_json
@@ -56,6 +57,7 @@ from ._signals import (
 )
 from ._simulate import RK4, simulate
 from ._stability import bibo_stability
+from ._status import RESULTS, status_name
 from ._swarm import MPSO
 from ._synthetic import demo_recording
 
@@ -385,13 +387,24 @@ _FIT_MODELS = {
 _PRESETS = {f"case{case}": case for case in (1, 2, 3, 4)}
 
 
-def _add_recording_options(parser) -> None:
-    parser.add_argument(
-        "recording",
-        metavar="RECORDING",
-        help="the recording: .csv/.txt (columns picked by --time/--input/--output), "
-        ".npz or .mat.",
-    )
+def _add_recording_options(parser, *, several: bool = False) -> None:
+    if several:
+        parser.add_argument(
+            "recording",
+            metavar="RECORDING",
+            nargs="+",
+            help="the recording(s): .csv/.txt (columns picked by --time/--input/"
+            "--output), .npz or .mat. Several recordings of one system (e.g. tests "
+            "at several frequencies) are fitted with one model; the column and "
+            "window options apply to each.",
+        )
+    else:
+        parser.add_argument(
+            "recording",
+            metavar="RECORDING",
+            help="the recording: .csv/.txt (columns picked by --time/--input/"
+            "--output), .npz or .mat.",
+        )
     group = parser.add_argument_group("columns of the recording")
     for option, default in (("time", "t"), ("input", "u"), ("output", "y")):
         index = ("t", "u", "y").index(default)
@@ -458,15 +471,21 @@ def _column(text: str | None, default: str, index: int, header: bool, option: st
     return text
 
 
-def _load_recording(args: argparse.Namespace) -> Recording:
-    """The recording named on the command line, cut to --start/--end."""
+def _load_recordings(args: argparse.Namespace) -> list[Recording]:
+    """Every recording named on the command line, each cut to --start/--end."""
+    return [_load_recording(args, path) for path in args.recording]
+
+
+def _load_recording(args: argparse.Namespace, path: str | None = None) -> Recording:
+    """The recording named on the command line (or `path`), cut to
+    --start/--end."""
     start, end = args.start, args.end
     if start is not None and end is not None and not start < end:
         raise ValueError(
             f"--start {start:g} --end {end:g}: the window is empty; pass --start "
             "below --end."
         )
-    recording = _read_recording(args)
+    recording = _read_recording(args, args.recording if path is None else path)
     if start is None and end is None:
         return recording
     first, last = float(recording.t[0]), float(recording.t[-1])
@@ -510,7 +529,7 @@ def _window_line(args: argparse.Namespace, recording: Recording) -> str | None:
     return f"window: {where} ({given}), {recording.num_samples} samples"
 
 
-def _read_recording(args: argparse.Namespace) -> Recording:
+def _read_recording(args: argparse.Namespace, path: str) -> Recording:
     if args.no_time:
         if args.time is not None:
             raise ValueError(
@@ -519,7 +538,7 @@ def _read_recording(args: argparse.Namespace) -> Recording:
                 "one."
             )
         return Recording.load(
-            args.recording,
+            path,
             time=None,
             input=_quasi_static_column(args.input, 0, "input"),
             output=_quasi_static_column(args.output, 1, "output"),
@@ -527,7 +546,7 @@ def _read_recording(args: argparse.Namespace) -> Recording:
         )
     header = not args.no_header
     return Recording.load(
-        args.recording,
+        path,
         time=_column(args.time, "t", 0, header, "time"),
         input=_column(args.input, "u", 1, header, "input"),
         output=_column(args.output, "y", 2, header, "output"),
@@ -650,10 +669,12 @@ def _add_fit_parser(subparsers) -> None:
             "swarm (MPSO) over a scaled parameter box, then a Levenberg-Marquardt "
             "polish on all samples. Prints the parameters (with standard errors), the "
             "error measures (RMSE, MAD, MRD, MAE, NRMSD) and the timing; --json and "
-            "--plots save them. Existing outputs are never replaced without --force."
+            "--plots save them. Several recordings are fitted with one model (the "
+            "metrics then also per recording). Existing outputs are never replaced "
+            "without --force."
         ),
     )
-    _add_recording_options(parser)
+    _add_recording_options(parser, several=True)
     parser.add_argument(
         "--model",
         choices=tuple(_FIT_MODELS),
@@ -693,47 +714,49 @@ def _fit_template(name: str):
     return piezo
 
 
-def _identify_corrected(recording: Recording, key, swarm: MPSO):
+def _identify_corrected(recordings: list[Recording], key, swarm: MPSO):
     """The paper's two stages plus a joint polish: the plain piezo model; then
     (phi, eps) by the swarm with the rest fixed; then all eight from there."""
     first = identify(
         _fit_template("piezo"),
-        recording,
+        recordings,
         key=jax.random.fold_in(key, 0),
         swarm=swarm,
         analyse=False,
         progress=True,
+        throw=False,
     )
     template = CorrectedPiezoBoucWen.from_piezo(cast(PiezoBoucWen, first.model))
-    duration = recording.duration
-    su = float(np.max(np.abs(recording.u)))
-    reach = 2.0 / (su * duration)
+    # The corrected model's default (phi, eps) bounds; the rest stays at stage 1's fit.
+    box = template.default_bounds(joint_scales(recordings))
     space = ParameterSpace(
-        template,
-        {"phi": (-0.05 * duration, 0.05 * duration), "eps": (-reach, reach)},
+        template, {name: box.bounds[name] for name in ("phi", "eps")}
     )
     second = identify(
         template,
-        recording,
+        recordings,
         key=jax.random.fold_in(key, 1),
         space=space,
         swarm=swarm,
         start=template,  # phi = eps = 0, stage 1's fit, unless the swarm beats it
         analyse=False,
         progress=True,
+        throw=False,
     )
     joint = identify(
         template,
-        recording,
+        recordings,
         key=jax.random.fold_in(key, 2),
         swarm=None,
         start=second.model,
+        throw=False,
     )
     stages = [
         {
             "stage": label,
             "model": type(fit.model).__name__,
             "rmse": fit.metrics["rmse"],
+            "status": status_name(fit.result),
             "total_s": fit.timing["total_s"],
         }
         for label, fit in (
@@ -747,6 +770,28 @@ def _identify_corrected(recording: Recording, key, swarm: MPSO):
     return dataclasses.replace(joint, timing=timing), stages
 
 
+def _recording_json(recording: Recording) -> dict[str, object]:
+    return {
+        "name": recording.name,
+        "samples": recording.num_samples,
+        "sample_rate_hz": recording.sample_rate,
+        "input_unit": recording.input_unit,
+        "output_unit": recording.output_unit,
+    }
+
+
+def _plot_folders(plots: Path, recordings: list[Recording]) -> list[Path]:
+    """Where each recording's figures go: DIR itself for one recording, else one
+    subfolder per recording (named after it, numbered when names repeat)."""
+    if len(recordings) == 1:
+        return [plots]
+    names = [r.name for r in recordings]
+    return [
+        plots / (name if names.count(name) == 1 else f"{i + 1}_{name}")
+        for i, name in enumerate(names)
+    ]
+
+
 def _run_fit(args: argparse.Namespace) -> int:
     swarm = _swarm(args)
     outputs: list[tuple[str, Path]] = []
@@ -754,44 +799,48 @@ def _run_fit(args: argparse.Namespace) -> int:
     if json_path is not None:
         outputs.append(("--json", json_path))
     _check_files(outputs, args.force)
+    recordings = _load_recordings(args)
     plots = Path(args.plots) if args.plots is not None else None
-    if plots is not None:
-        _check_folder("--plots", plots, tuple(FIT_FIGURES.values()), args.force)
+    folders = [] if plots is None else _plot_folders(plots, recordings)
+    for folder in folders:
+        _check_folder("--plots", folder, tuple(FIT_FIGURES.values()), args.force)
+    if folders:
         require_matplotlib()
-    recording = _load_recording(args)
 
     key = jax.random.key(args.seed)
     stages = None
     if args.model == "corrected":
-        fit, stages = _identify_corrected(recording, key, swarm)
+        fit, stages = _identify_corrected(recordings, key, swarm)
     else:
         if args.model == "stage":
             solver = RK4(substeps=4)
         elif args.model == "bouc-wen":
-            solver = StructuralFamily().solver(recording)
+            solver = StructuralFamily().solver(recordings[0])
         else:
             solver = RK4()
         fit = identify(
             _fit_template(args.model),
-            recording,
+            recordings,
             key=key,
             swarm=swarm,
             solver=solver,
             progress=True,
+            throw=False,
         )
-    if not np.all(np.isfinite(np.asarray(fit.predicted))):
+    if fit.result == RESULTS.nonfinite:
         raise ValueError(
             "the fitted model's output is not finite; try another --seed, a larger "
             "swarm, or check the recording."
         )
-    print(
-        f"recording: {recording.name}, {recording.num_samples} samples at "
-        f"{recording.sample_rate:g} Hz over {recording.duration:g} s"
-    )
-    window = _window_line(args, recording)
-    if window is not None:
-        print(window)
-    print(fit_summary(fit, recording))
+    for recording in recordings:
+        print(
+            f"recording: {recording.name}, {recording.num_samples} samples at "
+            f"{recording.sample_rate:g} Hz over {recording.duration:g} s"
+        )
+        window = _window_line(args, recording)
+        if window is not None:
+            print(window)
+    print(fit_summary(fit, recordings[0]))
     if stages is not None:
         print("stages:")
         for stage in stages:
@@ -801,23 +850,23 @@ def _run_fit(args: argparse.Namespace) -> int:
             )
     if json_path is not None:
         data = fit.to_dict()
-        data["recording"] = {
-            "name": recording.name,
-            "samples": recording.num_samples,
-            "sample_rate_hz": recording.sample_rate,
-            "input_unit": recording.input_unit,
-            "output_unit": recording.output_unit,
-        }
+        if len(recordings) == 1:
+            data["recording"] = _recording_json(recordings[0])
+        data["recordings"] = [_recording_json(r) for r in recordings]
         data["command"] = {"model": args.model, "seed": args.seed}
-        data["window"] = _window(args, recording)
+        data["window"] = _window(args, recordings[0])
         if isinstance(fit.model, BoucWen):
-            data.update(opensees_json(fit.model, recording))
+            data.update(opensees_json(fit.model, recordings[0]))
         if stages is not None:
             data["stages"] = stages
         _write_json(data, json_path, args.force)
-    if plots is not None:
+    for i, (recording, folder) in enumerate(zip(recordings, folders)):
         written = write_fit_figures(
-            fit, recording, plots, overwrite=args.force, label=args.model
+            fit.for_recording(i),
+            recording,
+            folder,
+            overwrite=args.force,
+            label=args.model,
         )
         _print_written(written.values())
     return 0
@@ -1122,7 +1171,9 @@ def _build_parser() -> _Parser:
         prog=_PROG,
         description=(
             "Bouc-Wen hysteresis models in JAX: simulate, identify, diagnose. "
-            "Run 'jaxhyst COMMAND --help' for a command's options."
+            "Run 'jaxhyst COMMAND --help' for a command's options. Compiled "
+            "programs are cached on disk so that later runs start faster "
+            "(JAXHYST_CACHE_DIR moves the cache; an empty value turns it off)."
         ),
     )
     parser.add_argument(
@@ -1139,6 +1190,7 @@ def _build_parser() -> _Parser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line with `argv` (default: `sys.argv[1:]`); returns the exit
     status: 0 on success, 2 on a user error (reported as one line on stderr)."""
+    enable_compilation_cache()
     jax.config.update("jax_enable_x64", True)
     parser = _build_parser()
     try:

@@ -5,19 +5,15 @@ bounds, linearly or on a log scale (for a parameter that spans decades). They ne
 search raw values of wildly different magnitudes.
 """
 
+from typing import Any
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from ._models.base import AbstractHysteresisModel
-from ._models.bouc_wen import (
-    BoucWen,
-    CorrectedPiezoBoucWen,
-    PiezoBoucWen,
-    PiezoStage,
-)
-from ._models.oscillator import HystereticOscillator
+from ._models.base import AbstractHysteresisModel, DataScales
+from ._recording import Recording
 
 
 # Exponents below 1 leave Table 2's stable classes (and |h|^n loses its derivative).
@@ -29,7 +25,7 @@ class ParameterSpace(eqx.Module):
 
     `bounds` maps each free parameter name to `(lower, upper)` in the model's units.
     `log_scale` names the free parameters searched on a log scale (bounds must then
-    have one sign). Build the usual space for a recording with
+    have one sign). Build the model's default space for a recording with
     `ParameterSpace.default(model, recording)`.
     """
 
@@ -155,82 +151,23 @@ class ParameterSpace(eqx.Module):
     def default(
         cls,
         template: AbstractHysteresisModel,
-        input_scale: float,
-        output_scale: float,
-        duration: float,
+        scales: DataScales | Recording,
         *,
-        sample_rate: float | None = None,
         gauge: bool = True,
+        **options: Any,
     ) -> "ParameterSpace":
-        """Bounds scaled to the data: `input_scale` = max |u|, `output_scale` = max |y|.
-
-        For the piezo models the hysteretic variable is made dimensionless: with
-        `gauge=True` (default) A1 is fixed at 1/input_scale, which removes the
-        h -> c*h symmetry (any fit with A1 != 0 maps onto it exactly); then k1, k2 are
-        O(output/input) and O(output), beta1, gamma1 O(1/input). Pass `gauge=False` to
-        search all six (the redundant direction is then reported, not removed).
-        """
-        su, sy = float(input_scale), float(output_scale)
-        if not (su > 0 and sy > 0 and duration > 0):
-            raise ValueError(
-                "ParameterSpace.default: input_scale, output_scale and duration must be "
-                "positive; a constant input or output cannot identify a model."
+        """The model's default search box for a record: `template.default_bounds`,
+        with `scales` a `DataScales` or a `Recording` (its scales are taken).
+        `gauge=True` fixes the parameters that only rescale an internal variable
+        (the piezo models' A1 = 1/max|u|); `options` are further keywords of the
+        model's `default_bounds` (e.g. `nu_free=True` for `HystereticOscillator`).
+        Models without a default box raise TypeError."""
+        if not isinstance(template, AbstractHysteresisModel):
+            raise TypeError(
+                "ParameterSpace.default: template must be a jaxhyst model, got "
+                f"{type(template).__name__}."
             )
-        piezo = {
-            "k1": (-3 * sy / su, 3 * sy / su),
-            "k2": (-5 * sy, 5 * sy),
-            "A1": (-3 / su, 3 / su),
-            # |beta1|, |gamma1| * max|u| up to 50: the loop may saturate within 2 % of
-            # the input range (the paper's Table 4 sets reach ~37).
-            "beta1": (-50 / su, 50 / su),
-            "gamma1": (-50 / su, 50 / su),
-            "n": (1.0, 3.0),
-        }
-        if isinstance(template, (PiezoBoucWen, CorrectedPiezoBoucWen, PiezoStage)):
-            bounds = dict(piezo)
-            log: list[str] = []
-            if gauge:
-                del bounds["A1"]
-                template = template.replace(A1=1.0 / su)
-            if isinstance(template, CorrectedPiezoBoucWen):
-                bounds["phi"] = (-0.05 * duration, 0.05 * duration)
-                bounds["eps"] = (-2.0 / (su * duration), 2.0 / (su * duration))
-            if isinstance(template, PiezoStage):
-                nyquist = 0.5 * (sample_rate or 1000.0)
-                bounds["natural_frequency"] = (2.0 / duration, 0.5 * nyquist)
-                bounds["damping_ratio"] = (1e-3, 3.0)
-                log += ["natural_frequency", "damping_ratio"]
-            return cls(template, bounds, log_scale=log)
-        if isinstance(template, BoucWen):
-            bounds = {
-                "k": (1e-3 * sy / su, 10 * sy / su),
-                "alpha": (0.0, 1.0),
-                "A": (-3.0, 3.0),
-                "beta": (-10 / su, 10 / su),
-                "gamma": (-10 / su, 10 / su),
-                "n": (1.0, 3.0),
-            }
-            return cls(template.replace(D=1.0), bounds, log_scale=["k"])
-        if isinstance(template, HystereticOscillator):
-            # u is a force, y a displacement: stiffness ~ input/output.
-            k = su / sy
-            bounds = {
-                "mass": (
-                    k / (2 * np.pi * 0.25 * (sample_rate or 1000.0)) ** 2,
-                    k * (duration / (2 * np.pi)) ** 2,
-                ),
-                "damping": (1e-4 * k, 1.0 * k),
-                "stiffness": (1e-2 * k, 1e2 * k),
-                "alpha": (1e-2 * k, 1e2 * k),
-                "beta_gamma": (-10 / sy, 10 / sy),
-                "beta_delta": (-10 / sy, 10 / sy),
-            }
-            return cls(
-                template,
-                bounds,
-                log_scale=["mass", "damping", "stiffness", "alpha"],
-            )
-        raise TypeError(
-            f"ParameterSpace.default: no default bounds for {type(template).__name__}; "
-            "build ParameterSpace(template, bounds) yourself."
-        )
+        if not isinstance(scales, DataScales):
+            scales = DataScales.of(scales)
+        box = template.default_bounds(scales, gauge=gauge, **options)
+        return cls(box.template, box.bounds, log_scale=box.log_scale)

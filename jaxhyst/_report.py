@@ -32,7 +32,7 @@ import equinox as eqx
 import numpy as np
 
 from ._diagnose._results import RESOLVED_SIGMA, Advice, Diagnosis, Finding
-from ._identify import Fit
+from ._identification._identify import Fit
 from ._plots import (
     plot_error_trend,
     plot_loop,
@@ -42,6 +42,7 @@ from ._plots import (
     plot_time_history,
 )
 from ._recording import Recording
+from ._status import status_message, status_name
 
 
 FIT_FIGURES: dict[str, str] = {
@@ -834,7 +835,11 @@ def fit_summary(fit: Fit, recording: Recording) -> str:
     if fit.identifiability is not None:
         errors = fit.identifiability.standard_errors
     width = max(len(n) for n in names)
-    lines = [f"model: {type(fit.model).__name__}", "parameters:"]
+    lines = [f"model: {type(fit.model).__name__}"]
+    status = status_name(fit.result)
+    if status != "successful":
+        lines.append(f"status: {status}: {status_message(fit.result)}")
+    lines.append("parameters:")
     singular = False
     for name in names:
         value = float(getattr(fit.model, name))
@@ -847,14 +852,23 @@ def fit_summary(fit: Fit, recording: Recording) -> str:
         lines.append(f"  {name:<{width}}  {value:>14.6g}{note}")
     if singular:
         lines.append(
-            "  (± n/a: the free parameters are not jointly identifiable from this "
-            "record, so no standard errors; see 'identifiability' in the JSON)"
+            "  (± n/a: the parameter lies on a direction this record does not "
+            "determine, so it has no standard error; see 'identifiability' in the "
+            "JSON)"
         )
     elif errors:
         lines.append("  (± one standard error, from the Jacobian at the fit)")
     m = fit.metrics
+    for each in fit.per_recording:
+        r = each.metrics
+        lines.append(
+            f"  on {each.recording}: RMSE {scale * r['rmse']:.6g}{s}, "
+            f"NRMSD {r['nrmsd']:.6g}"
+        )
+    if fit.per_recording:
+        lines.insert(len(lines) - len(fit.per_recording), "metrics per recording:")
     lines += [
-        "metrics on all samples:",
+        "metrics on all samples" + (" together:" if fit.per_recording else ":"),
         f"  RMSE   {scale * m['rmse']:.6g}{s}",
         f"  MAD    {scale * m['mad']:.6g}{s}",
         f"  MRD    {m['mrd']:.6g} %",

@@ -39,26 +39,20 @@ def is_bibo_stable(
 
 
 def bibo_stability(model: AbstractHysteresisModel) -> StabilityReport:
-    """Check a model's (A, beta, gamma, n[, D]) against Table 2 and explain the verdict.
-
-    Works for `BoucWen`, the piezo models (A1, beta1, gamma1) and the benchmark
-    oscillator (alpha, beta_gamma, beta_delta). Needs concrete (not traced) values.
-    """
-    params = {k: float(v) for k, v in model.parameters().items()}
-    for a_name, b_name, g_name, n_name in (
-        ("A", "beta", "gamma", "n"),
-        ("A1", "beta1", "gamma1", "n"),
-        ("alpha", "beta_gamma", "beta_delta", "nu"),
-    ):
-        if {a_name, b_name, g_name, n_name} <= params.keys():
-            break
-    else:
+    """Check a model's Bouc-Wen shape (`model.bouc_wen_shape()`: A, beta, gamma, n
+    and D) against Table 2 and explain the verdict in the model's own parameter
+    names. Needs concrete (not traced) values; `is_bibo_stable(*shape)` is the
+    traceable check."""
+    if not isinstance(model, AbstractHysteresisModel):
         raise TypeError(
-            f"bibo_stability: {type(model).__name__} has no Bouc-Wen shape parameters "
-            "(A, beta, gamma, n); pass a BoucWen-family model."
+            f"bibo_stability: model must be a jaxhyst model, got {type(model).__name__}."
         )
-    A, beta, gamma, n = (params[a_name], params[b_name], params[g_name], params[n_name])
-    D = params.get("D", 1.0)
+    try:
+        shape = model.bouc_wen_shape()
+    except TypeError as error:
+        raise TypeError(f"bibo_stability: {error}") from None
+    a_name, b_name, g_name, n_name = shape.names[:4]
+    A, beta, gamma, n, D = (float(v) for v in shape)
     values = f"{a_name}={A:g}, {b_name}={beta:g}, {g_name}={gamma:g}"
     if not D > 0:
         return StabilityReport(False, f"D={D:g} must be positive (Table 2 needs D > 0)")

@@ -9,7 +9,7 @@ over a box `lower <= x <= upper`. The pieces are
 - `SwarmState`: the state they pass around;
 - `run_swarm`: the driver, a jitted `lax.scan` over chunks of iterations with early
   stopping, progress output and particle sharding across devices between chunks;
-- `SwarmResult`: what `run_swarm` returns.
+- `SwarmResult`: what `run_swarm` returns, with a `RESULTS` status (`result`).
 """
 
 import dataclasses
@@ -25,6 +25,8 @@ import jax.random as jr
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int, PRNGKeyArray
+
+from ._status import RESULTS, raise_unless_successful
 
 
 # Table 3 of the paper: case -> (swarm size, number of iterations G).
@@ -383,7 +385,22 @@ class SwarmResult(eqx.Module):
     - `wall_seconds`: total time of the call, compilation included.
     - `compile_seconds`: time JAX spent tracing, lowering and compiling during the call
       (0 when everything was cached; approximate if other threads compile meanwhile).
-    - `stop_reason`: `"max_iterations"`, `"target"` or `"stall"`.
+    - `stop_reason`: *why* the run stopped: `"target"` (the best fitness reached
+      `target`), `"stall"` (no improvement by more than `stall_tolerance` for
+      `stall_iterations` iterations) or `"max_iterations"` (the schedule of
+      `num_iterations` ran out). When several hold at the same iteration the first
+      of target, stall, max_iterations is given.
+    - `result`: *whether* that is a success, a `RESULTS` item:
+        - `RESULTS.successful`: the stopping rule was met: the target was reached
+          or the swarm stalled; or, with neither `target` nor `stall_iterations`
+          set (a fixed schedule, as in the paper), the schedule ran to its end.
+        - `RESULTS.max_steps_reached`: an early-stopping rule (`target` and/or
+          `stall_iterations`) was set, but the iterations ran out before it was
+          met (`stop_reason == "max_iterations"`).
+        - `RESULTS.nonfinite`: the best fitness is not finite (the objective was
+          never finite at any particle); this takes precedence over the others.
+
+      `status_name(result.result)` gives the member's name as a string.
     - `state`: the final `SwarmState` (e.g. for the pbest of every particle).
     """
 
@@ -395,6 +412,7 @@ class SwarmResult(eqx.Module):
     wall_seconds: float
     compile_seconds: float
     stop_reason: StopReason
+    result: RESULTS
     state: SwarmState
 
 
@@ -406,19 +424,28 @@ class _Monitor(eqx.Module):
 
 
 def _stop_code(swarm, state, monitor, target, stall_iterations) -> Int[Array, ""]:
+    # A met stopping rule takes precedence over the end of the schedule, so a run
+    # that stalls (or reaches its target) on its last iteration counts as a success.
     return jnp.where(
         state.gbest_fitness <= target,
         _TARGET,
         jnp.where(
-            state.iteration >= swarm.num_iterations,
-            _MAX_ITERATIONS,
+            state.iteration - monitor.last_improvement >= stall_iterations,
+            _STALL,
             jnp.where(
-                state.iteration - monitor.last_improvement >= stall_iterations,
-                _STALL,
-                _RUNNING,
+                state.iteration >= swarm.num_iterations, _MAX_ITERATIONS, _RUNNING
             ),
         ),
     )
+
+
+def _status(code: int, best_fitness: float, early_stopping: bool) -> RESULTS:
+    """The `RESULTS` item of a finished run (host side, see `SwarmResult`)."""
+    if not np.isfinite(best_fitness):
+        return RESULTS.nonfinite
+    if code == _MAX_ITERATIONS and early_stopping:
+        return RESULTS.max_steps_reached
+    return RESULTS.successful
 
 
 def _map_state(state: SwarmState, fn, particle, replicated) -> SwarmState:
@@ -586,6 +613,7 @@ def run_swarm(
     stall_tolerance: float = 0.0,
     sharding: Literal["auto"] | None = "auto",
     devices: Sequence[jax.Device] | None = None,
+    throw: bool = True,
 ) -> SwarmResult:
     """Minimise `objective(x, args)` over the box `[lower, upper]` with `swarm`.
 
@@ -617,6 +645,12 @@ def run_swarm(
       `num_particles` are inert dummy particles (never moving, fitness +inf), which
       cost their evaluations and do not change the result.
     - `devices`: the devices for `sharding="auto"`.
+    - `throw`: as in optimistix: when True, raise a `RuntimeError` (naming the
+      status and its fix) unless the run is successful, i.e. when an early-stopping
+      rule was set but not met within `num_iterations`, or when no particle ever had
+      a finite objective. When False, return the result anyway and report the
+      status in `SwarmResult.result`. A fixed schedule (no `target`, no
+      `stall_iterations`) only fails when the objective was never finite.
 
     **Returns:** a `SwarmResult`.
     """
@@ -708,14 +742,20 @@ def run_swarm(
         state = _unpad_state(state, n)
 
     history = np.concatenate(history)
-    return SwarmResult(
+    best_fitness = float(history[-1])
+    early_stopping = target is not None or stall_iterations is not None
+    result = SwarmResult(
         best_x=state.gbest,
-        best_fitness=float(history[-1]),
+        best_fitness=best_fitness,
         history=history,
         iterations_run=iteration,
         evaluations=n * (iteration + 1),
         wall_seconds=time.perf_counter() - start,
         compile_seconds=timer.seconds,
         stop_reason=_STOP_REASONS[code],
+        result=_status(code, best_fitness, early_stopping),
         state=state,
     )
+    if throw:
+        raise_unless_successful(result.result, "run_swarm")
+    return result

@@ -48,6 +48,7 @@ from jaxtyping import Array, Float, PRNGKeyArray
 from ._inputs import InputPath
 from ._models.base import (
     AbstractHysteresisModel,
+    BoucWenShape,
     Drive,
     as_parameter,
     hysteretic_rate,
@@ -290,8 +291,8 @@ class ConcealedTruth(AbstractHysteresisModel):
     def smoothing(self) -> AbstractSmoothing:
         return self.base.smoothing
 
-    # The base parameters, so that `parameters()`, `replace()` and `bibo_stability`
-    # read the underlying piezo model.
+    # The base parameters, so that `parameters()` and `replace()` read the
+    # underlying piezo model.
     @property
     def k1(self):
         return self.base.k1
@@ -315,6 +316,10 @@ class ConcealedTruth(AbstractHysteresisModel):
     @property
     def n(self):
         return self.base.n
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        """The base model's shape (what `bibo_stability` checks)."""
+        return self.base.bouc_wen_shape()
 
     def _quasi_static(self, state, drive: Drive):
         u = drive.u

@@ -67,7 +67,7 @@ import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
 from ._inputs import InputPath
-from ._models.base import AbstractHysteresisModel, as_parameter
+from ._models.base import AbstractHysteresisModel, BoucWenShape, as_parameter
 from ._models.bouc_wen import BoucWen
 from ._recording import Recording
 from ._signals import _check
@@ -315,6 +315,10 @@ class StructuralTruth(AbstractHysteresisModel):
     @property
     def n(self):
         return self.base.n
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        """The base model's shape (what `bibo_stability` checks)."""
+        return self.base.bouc_wen_shape()
 
     @property
     def yield_displacement(self) -> Float[Array, ""]:

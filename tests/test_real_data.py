@@ -188,7 +188,7 @@ def test_fit_on_two_training_periods_converges(benchmark):
         template,
         avg.recording,
         key=jax.random.key(1),
-        space=jh.oscillator_space(template, avg.recording),
+        space=jh.ParameterSpace.default(template, avg.recording),
         noise_sigma=avg.mean_sigma,
     )
     truth = jh.HystereticOscillator.benchmark_truth().parameters()

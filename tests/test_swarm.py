@@ -10,6 +10,7 @@ import jax.random as jr
 import numpy as np
 import pytest
 
+from jaxhyst._status import RESULTS, status_name
 from jaxhyst._swarm import MPSO, SwarmState, run_swarm
 
 
@@ -36,6 +37,14 @@ def half_nan(x, args):
 
 def constant(x, args):
     return jnp.asarray(1.0)
+
+
+def always_inf(x, args):
+    return jnp.inf + jnp.sum(x)
+
+
+def always_nan(x, args):
+    return jnp.nan + jnp.sum(x)
 
 
 UNIT = (-jnp.ones(3), jnp.ones(3))
@@ -162,6 +171,9 @@ def test_determinism_and_chunk_size_independence():
     first = results[0]
     assert first.iterations_run == SMALL.num_iterations
     assert first.stop_reason == "max_iterations"
+    # A fixed schedule (no target, no stall rule) run to its end is a success.
+    assert status_name(first.result) == "successful"
+    assert bool(first.result == RESULTS.successful)
     assert first.history.shape == (SMALL.num_iterations + 1,)
     assert np.all(np.diff(first.history) <= 0)
     assert first.best_fitness == first.history[-1]
@@ -193,15 +205,22 @@ def test_nonfinite_regions_never_win():
     assert np.all(np.asarray(state.pbest[found, 0]) <= 0)
 
 
-def test_all_nonfinite_gives_inf():
-    result = run_swarm(
-        lambda x, args: jnp.nan,
-        *UNIT,
-        MPSO(num_particles=4, num_iterations=3),
-        jr.key(0),
-    )
+@pytest.mark.parametrize("objective", [always_inf, always_nan])
+def test_all_nonfinite_gives_inf_and_status_nonfinite(objective):
+    swarm = MPSO(num_particles=4, num_iterations=3)
+    result = run_swarm(objective, *UNIT, swarm, jr.key(0), throw=False)
     assert result.best_fitness == np.inf
     assert np.all(np.isposinf(result.history))
+    assert result.stop_reason == "max_iterations"
+    assert status_name(result.result) == "nonfinite"
+    # Non-finite wins over a stall that was met (the fitness never improved).
+    stalled = run_swarm(
+        objective, *UNIT, swarm, jr.key(0), stall_iterations=2, throw=False
+    )
+    assert stalled.stop_reason == "stall"
+    assert status_name(stalled.result) == "nonfinite"
+    with pytest.raises(RuntimeError, match="run_swarm: nonfinite: .*throw=False"):
+        run_swarm(objective, *UNIT, swarm, jr.key(0))
 
 
 @pytest.mark.parametrize("d", [2, 6])
@@ -238,9 +257,26 @@ def test_coefficients_do_not_retrace():
     ]
     for swarm in variants:
         run_swarm(counted, *UNIT, swarm, jr.key(1), args=2 * centre, chunk_size=10)
-    run_swarm(counted, *UNIT, base, jr.key(0), args=centre, chunk_size=10, target=0.5)
+    # throw=False: whether these early-stopping rules are met is beside the point.
     run_swarm(
-        counted, *UNIT, base, jr.key(0), args=centre, chunk_size=10, stall_iterations=3
+        counted,
+        *UNIT,
+        base,
+        jr.key(0),
+        args=centre,
+        chunk_size=10,
+        target=0.5,
+        throw=False,
+    )
+    run_swarm(
+        counted,
+        *UNIT,
+        base,
+        jr.key(0),
+        args=centre,
+        chunk_size=10,
+        stall_iterations=3,
+        throw=False,
     )
     assert len(traces) == count
 
@@ -273,6 +309,7 @@ def test_early_stop_on_target():
     ]
     result = runs[0]
     assert result.stop_reason == "target"
+    assert status_name(result.result) == "successful"
     assert result.best_fitness <= 1e-8 < result.history[-2]
     assert result.iterations_run < swarm.num_iterations
     assert len(result.history) == result.iterations_run + 1
@@ -283,6 +320,7 @@ def test_early_stop_on_target():
     # A target met by the initial swarm stops before any iteration.
     early = run_swarm(sphere, *UNIT, swarm, jr.key(7), target=10.0)
     assert early.stop_reason == "target" and early.iterations_run == 0
+    assert status_name(early.result) == "successful"
 
 
 def test_early_stop_on_stall():
@@ -291,8 +329,20 @@ def test_early_stop_on_stall():
         constant, *UNIT, swarm, jr.key(0), stall_iterations=25, chunk_size=10
     )
     assert result.stop_reason == "stall"
+    assert status_name(result.result) == "successful"
     assert result.iterations_run == 25
     np.testing.assert_array_equal(result.history, np.ones(26))
+    # A stall on the last iteration of the schedule is still a stall, a success.
+    last = run_swarm(
+        constant,
+        *UNIT,
+        MPSO(num_particles=16, num_iterations=25),
+        jr.key(0),
+        stall_iterations=25,
+        chunk_size=10,
+    )
+    assert last.stop_reason == "stall" and last.iterations_run == 25
+    assert status_name(last.result) == "successful"
     # On a converging problem a huge stall tolerance stops it early, too.
     loose = run_swarm(
         sphere,
@@ -304,6 +354,42 @@ def test_early_stop_on_stall():
         chunk_size=10,
     )
     assert loose.stop_reason == "stall" and loose.iterations_run == 5
+    assert status_name(loose.result) == "successful"
+
+
+@pytest.mark.parametrize(
+    "rule",
+    [
+        dict(target=1e-30),
+        dict(stall_iterations=1000),
+        dict(target=1e-30, stall_iterations=1000),
+    ],
+    ids=["target", "stall", "both"],
+)
+def test_early_stopping_not_met_is_max_steps_reached(rule):
+    # 10 iterations cannot reach 1e-30 on the sphere nor stall for 1000.
+    swarm = MPSO(num_particles=16, num_iterations=10)
+    result = run_swarm(sphere, *UNIT, swarm, jr.key(0), throw=False, **rule)
+    assert result.stop_reason == "max_iterations"
+    assert result.iterations_run == swarm.num_iterations
+    assert np.isfinite(result.best_fitness)
+    assert status_name(result.result) == "max_steps_reached"
+    assert bool(result.result == RESULTS.max_steps_reached)
+    with pytest.raises(
+        RuntimeError, match="run_swarm: max_steps_reached: .*num_iterations"
+    ) as info:
+        run_swarm(sphere, *UNIT, swarm, jr.key(0), **rule)
+    # The message ends with the fix.
+    assert str(info.value).endswith("pass throw=False to keep the best point found.")
+
+
+def test_throw_only_on_failure():
+    # throw=True (the default) returns a successful result unchanged.
+    swarm = MPSO(num_particles=16, num_iterations=10)
+    thrown = run_swarm(sphere, *UNIT, swarm, jr.key(0), target=10.0)
+    kept = run_swarm(sphere, *UNIT, swarm, jr.key(0), target=10.0, throw=False)
+    assert status_name(thrown.result) == status_name(kept.result) == "successful"
+    np.testing.assert_array_equal(thrown.history, kept.history)
 
 
 def test_progress_bar(capsys):

@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, PRNGKeyArray
 
-from .._identify import identify
+from .._identification._identify import identify
 from .._inputs import InputPath
 from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel
@@ -246,6 +246,7 @@ def _base_fit(
             weights=ctx.weights,
             analyse=False,
             progress=progress,
+            throw=False,
         )
         base = fit.model
     current = ctx.family.extend(base, ctx.recording)

@@ -8,13 +8,13 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, PRNGKeyArray
 
-from .._identify import (
-    LevenbergMarquardtPolish,
+from .._identification._polish import LevenbergMarquardtPolish
+from .._identification._problem import (
     Problem,
-    _decimate,
-    _model_at,
-    _problem_rmse,
-    _swarm_objective,
+    decimated,
+    model_at,
+    problem_rmse,
+    swarm_objective,
 )
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
@@ -88,7 +88,7 @@ def refit(
     problem = Problem(space, inputs, measured, solver, weights)
     stride = settings.stride
     if stride > 1:
-        problem = _decimate(problem, stride)
+        problem = decimated(problem, stride)
     z0 = space.from_model(model)
     if (
         key is not None
@@ -96,9 +96,9 @@ def refit(
         and model.sample_update(inputs) is None
     ):
         coarse_stride = max(1, inputs.num_samples // 2000)
-        coarse = _decimate(problem, max(1, coarse_stride // stride))
+        coarse = decimated(problem, max(1, coarse_stride // stride))
         swarm = run_swarm(
-            _swarm_objective,
+            swarm_objective,
             jnp.zeros(space.dimension),
             jnp.ones(space.dimension),
             settings.swarm,
@@ -106,9 +106,10 @@ def refit(
             args=coarse,
             chunk_size=20,
             stall_iterations=20,
+            throw=False,
         )
-        if float(_problem_rmse(problem, swarm.best_x)) < float(
-            _problem_rmse(problem, z0)
+        if float(problem_rmse(problem, swarm.best_x)) < float(
+            problem_rmse(problem, z0)
         ):
             z0 = swarm.best_x
     # Decimated fits (screening, converging, final) come in many free sets and are
@@ -123,7 +124,7 @@ def refit(
     polish = LevenbergMarquardtPolish(max_steps=settings.max_steps, min_gain=1e-5)
     # `ActiveProblem` offers the part of `Problem` a polish uses.
     result = polish.run(active, active.start())  # pyright: ignore[reportArgumentType]
-    return _model_at(space, active.full(result.z))
+    return model_at(space, active.full(result.z))
 
 
 class ActiveProblem(eqx.Module):
@@ -159,3 +160,7 @@ class ActiveProblem(eqx.Module):
 
     def rmse(self, z):
         return self.problem.rmse(self.full(z))
+
+    @property
+    def fitted_samples(self) -> int:
+        return self.problem.fitted_samples

@@ -4,36 +4,19 @@ and the Lagrange-multiplier statistic."""
 import math
 
 import equinox as eqx
-import jax
-import jax.numpy as jnp
 import numpy as np
 
+from .._identification._identifiability import output_jacobian
+from .._identification._problem import RecordSimulation
 from .._models.base import AbstractHysteresisModel
 from .._simulate import AbstractSimulationSolver, simulate
-
-
-@eqx.filter_jit
-def _output_jacobian(model, names, inputs, solver):
-    values = jnp.stack([jnp.asarray(getattr(model, n), float) for n in names])
-
-    def outputs(v):
-        new = eqx.tree_at(
-            lambda m: [getattr(m, n) for n in names],
-            model,
-            [v[i] for i in range(len(names))],
-        )
-        return simulate(new, inputs, solver, throw=False)
-
-    return jax.jacfwd(outputs)(values)
 
 
 def jacobian(
     model: AbstractHysteresisModel, names, inputs, solver: AbstractSimulationSolver
 ) -> np.ndarray:
     """d output / d parameter for `names` (one compilation per model structure)."""
-    return np.nan_to_num(
-        np.asarray(_output_jacobian(model, tuple(names), inputs, solver))
-    )
+    return output_jacobian(model, names, RecordSimulation(inputs, solver))[0]
 
 
 @eqx.filter_jit

@@ -6,15 +6,18 @@ so the same model runs unchanged under the scan-RK4 simulator and under diffrax.
 """
 
 import abc
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, ClassVar, Self
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._inputs import InputPath
+from .._recording import Recording
 from .._smoothing import AbstractSmoothing
 
 
@@ -39,6 +42,103 @@ class Drive(eqx.Module):
 
 
 SampleUpdate = Callable[[Array, Array, Array], Array]
+
+
+class DataScales(eqx.Module):
+    """The scales of a record that default search bounds are set from: peaks
+    (max|u|, max|y|), rms values, duration and sample rate. All must be positive and
+    finite. Build one from a recording with `DataScales.of(recording)`."""
+
+    input_peak: float = eqx.field(converter=float)
+    output_peak: float = eqx.field(converter=float)
+    input_rms: float = eqx.field(converter=float)
+    output_rms: float = eqx.field(converter=float)
+    duration: float = eqx.field(converter=float)
+    sample_rate: float = eqx.field(converter=float)
+
+    def __check_init__(self):
+        for name, label in (
+            ("input_peak", "max|u|"),
+            ("output_peak", "max|y|"),
+            ("input_rms", "rms(u)"),
+            ("output_rms", "rms(y)"),
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(
+                    f"DataScales: {name} ({label}) = {value:g} must be positive and "
+                    "finite; a constant input or output cannot identify a model."
+                )
+        for name in ("duration", "sample_rate"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(
+                    f"DataScales: {name} = {value:g} must be positive and finite; "
+                    "pass a record of at least two samples."
+                )
+
+    @classmethod
+    def of(cls, recording: Recording) -> "DataScales":
+        """The scales of `recording` (anything with `.u`, `.y`, `.duration` and
+        `.sample_rate`, such as a `Recording`)."""
+        missing = [
+            name
+            for name in ("u", "y", "duration", "sample_rate")
+            if not hasattr(recording, name)
+        ]
+        if missing:
+            raise TypeError(
+                f"DataScales.of: expected a Recording (with .u, .y, .duration and "
+                f".sample_rate), got {type(recording).__name__} without {missing}."
+            )
+        u, y = np.asarray(recording.u), np.asarray(recording.y)
+        return cls(
+            input_peak=float(np.max(np.abs(u))),
+            output_peak=float(np.max(np.abs(y))),
+            input_rms=float(np.sqrt(np.mean(u**2))),
+            output_rms=float(np.sqrt(np.mean(y**2))),
+            duration=float(recording.duration),
+            sample_rate=float(recording.sample_rate),
+        )
+
+
+class BoucWenShape(eqx.Module):
+    """A model's Bouc-Wen shape parameters (A, beta, gamma, n, D; D = 1 where the
+    model has none), as arrays (traceable), and the model's names for them (`names`:
+    those of A, beta, gamma, n, then D where the model has one). Iterating gives
+    (A, beta, gamma, n, D): `is_bibo_stable(*shape)`."""
+
+    A: Float[Array, ""]
+    beta: Float[Array, ""]
+    gamma: Float[Array, ""]
+    n: Float[Array, ""]
+    D: Float[Array, ""]
+    names: tuple[str, ...] = eqx.field(static=True)
+
+    def __init__(
+        self,
+        A: Float[ArrayLike, ""],
+        beta: Float[ArrayLike, ""],
+        gamma: Float[ArrayLike, ""],
+        n: Float[ArrayLike, ""],
+        D: Float[ArrayLike, ""] | None = None,
+        *,
+        names: tuple[str, ...],
+    ):
+        if len(names) != (4 if D is None else 5):
+            raise ValueError(
+                f"BoucWenShape: names {names} must name A, beta, gamma, n"
+                + (" and D." if D is not None else "; pass D to name five.")
+            )
+        self.A = jnp.asarray(A)
+        self.beta = jnp.asarray(beta)
+        self.gamma = jnp.asarray(gamma)
+        self.n = jnp.asarray(n)
+        self.D = jnp.ones_like(self.A) if D is None else jnp.asarray(D)
+        self.names = tuple(names)
+
+    def __iter__(self) -> Iterator[Float[Array, ""]]:
+        return iter((self.A, self.beta, self.gamma, self.n, self.D))
 
 
 class AbstractHysteresisModel(eqx.Module):
@@ -98,6 +198,24 @@ class AbstractHysteresisModel(eqx.Module):
         """
         return None
 
+    def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> "SearchBox":
+        """The default search box for a record with these `scales` (what
+        `ParameterSpace.default` searches). `gauge=True` fixes the parameters that
+        only rescale an internal variable, where the model has such a symmetry."""
+        name = type(self).__name__
+        raise TypeError(
+            f"{name}.default_bounds: no default bounds for {name}; build "
+            "ParameterSpace(template, bounds) yourself."
+        )
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        """The Bouc-Wen shape parameters (A, beta, gamma, n, D) of the hysteresis
+        law, for Table 2's stability classes (`bibo_stability`)."""
+        raise TypeError(
+            f"{type(self).__name__} has no Bouc-Wen shape parameters (A, beta, gamma, "
+            "n); pass a BoucWen-family model, or define bouc_wen_shape() on it."
+        )
+
     def parameters(self) -> dict[str, Array]:
         """The parameter values by name, in `parameter_names` order."""
         return {name: getattr(self, name) for name in self.parameter_names}
@@ -127,6 +245,23 @@ class AbstractHysteresisModel(eqx.Module):
             ),
             self,
         )
+
+
+def _float_bounds(
+    bounds: dict[str, tuple[float, float]],
+) -> dict[str, tuple[float, float]]:
+    return {name: (float(lo), float(hi)) for name, (lo, hi) in bounds.items()}
+
+
+class SearchBox(eqx.Module):
+    """A model's default search box: `template` (the model with the gauge fixed,
+    e.g. the piezo models' A1 = 1/max|u|), `bounds` of the free parameters in the
+    model's units, and the free parameters searched on a log scale. `ParameterSpace`
+    is built from it by `ParameterSpace.default`."""
+
+    template: AbstractHysteresisModel
+    bounds: dict[str, tuple[float, float]] = eqx.field(converter=_float_bounds)
+    log_scale: tuple[str, ...] = eqx.field(converter=tuple, static=True, default=())
 
 
 def read_input(

@@ -11,7 +11,10 @@ from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
     AbstractHysteresisModel,
+    BoucWenShape,
+    DataScales,
     Drive,
+    SearchBox,
     as_parameter,
     hysteretic_rate,
     read_input,
@@ -20,6 +23,42 @@ from .base import (
 
 def _smoothing_field():
     return eqx.field(default_factory=ExactSign, kw_only=True)
+
+
+def _piezo_box(
+    model: AbstractHysteresisModel, scales: DataScales, gauge: bool
+) -> SearchBox:
+    """The search box of the piezo hysteresis (eq. 7-8's k1, k2, A1, beta1, gamma1, n),
+    shared by every piezo model. With `gauge`, A1 is fixed at 1/max|u| (h is then
+    dimensionless) instead of searched."""
+    su, sy = scales.input_peak, scales.output_peak
+    bounds = {
+        "k1": (-3 * sy / su, 3 * sy / su),
+        "k2": (-5 * sy, 5 * sy),
+        "A1": (-3 / su, 3 / su),
+        # |beta1|, |gamma1| * max|u| up to 50: the loop may saturate within 2 % of
+        # the input range (the paper's Table 4 sets reach ~37).
+        "beta1": (-50 / su, 50 / su),
+        "gamma1": (-50 / su, 50 / su),
+        "n": (1.0, 3.0),
+    }
+    if gauge:
+        del bounds["A1"]
+        model = model.replace(A1=1.0 / su)
+    return SearchBox(model, bounds)
+
+
+def _piezo_shape(
+    model: "PiezoBoucWen | CorrectedPiezoBoucWen | PiezoStage",
+) -> BoucWenShape:
+    """The piezo models' shape: (A1, beta1, gamma1, n), no D."""
+    return BoucWenShape(
+        model.A1,
+        model.beta1,
+        model.gamma1,
+        model.n,
+        names=("A1", "beta1", "gamma1", "n"),
+    )
 
 
 class BoucWen(AbstractHysteresisModel):
@@ -65,6 +104,31 @@ class BoucWen(AbstractHysteresisModel):
         return (
             self.alpha * self.k * drive.u
             + (1 - self.alpha) * self.D * self.k * (state[0])
+        )
+
+    def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> SearchBox:
+        """k in [1e-3, 10]*max|y|/max|u| (log scale), alpha in [0, 1], A in [-3, 3],
+        beta and gamma in +-10/max|u|, n in [1, 3]; D is fixed at 1 (whatever
+        `gauge`: it only rescales h)."""
+        su, sy = scales.input_peak, scales.output_peak
+        bounds = {
+            "k": (1e-3 * sy / su, 10 * sy / su),
+            "alpha": (0.0, 1.0),
+            "A": (-3.0, 3.0),
+            "beta": (-10 / su, 10 / su),
+            "gamma": (-10 / su, 10 / su),
+            "n": (1.0, 3.0),
+        }
+        return SearchBox(self.replace(D=1.0), bounds, ("k",))
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        return BoucWenShape(
+            self.A,
+            self.beta,
+            self.gamma,
+            self.n,
+            self.D,
+            names=("A", "beta", "gamma", "n", "D"),
         )
 
 
@@ -128,6 +192,18 @@ class PiezoBoucWen(AbstractHysteresisModel):
 
     def output(self, t, state, drive):
         return self.k1 * drive.u + self.k2 * state[0]
+
+    def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> SearchBox:
+        """Bounds scaled to max|u| and max|y|. With `gauge=True` (default) A1 is
+        fixed at 1/max|u|, which makes h dimensionless and removes the h -> c*h
+        symmetry (any fit with A1 != 0 maps onto it exactly); then k1, k2 are
+        O(max|y|/max|u|) and O(max|y|), beta1, gamma1 O(1/max|u|), n in [1, 3].
+        `gauge=False` searches all six (the redundant direction is then reported,
+        not removed)."""
+        return _piezo_box(self, scales, gauge)
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        return _piezo_shape(self)
 
 
 class ShiftedDrive(Drive):
@@ -201,6 +277,19 @@ class CorrectedPiezoBoucWen(AbstractHysteresisModel):
 
     def output(self, t, state, drive):
         return self.k1 * drive.u + self.k2 * state[0]
+
+    def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> SearchBox:
+        """`PiezoBoucWen`'s box plus phi in +-5 % of the duration and eps in
+        +-2/(max|u|*duration)."""
+        box = _piezo_box(self, scales, gauge)
+        su, duration = scales.input_peak, scales.duration
+        bounds = dict(box.bounds)
+        bounds["phi"] = (-0.05 * duration, 0.05 * duration)
+        bounds["eps"] = (-2.0 / (su * duration), 2.0 / (su * duration))
+        return SearchBox(box.template, bounds, box.log_scale)
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        return _piezo_shape(self)
 
 
 class PiezoStage(AbstractHysteresisModel):
@@ -298,3 +387,17 @@ class PiezoStage(AbstractHysteresisModel):
     def initial_state(self, drive):
         y0 = self.k1 * drive.u
         return jnp.stack([y0, jnp.zeros_like(y0), jnp.zeros_like(y0)])
+
+    def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> SearchBox:
+        """`PiezoBoucWen`'s box plus natural_frequency from 2/duration to a quarter
+        of the sample rate and damping_ratio in [1e-3, 3], both on a log scale."""
+        box = _piezo_box(self, scales, gauge)
+        nyquist = 0.5 * scales.sample_rate
+        bounds = dict(box.bounds)
+        bounds["natural_frequency"] = (2.0 / scales.duration, 0.5 * nyquist)
+        bounds["damping_ratio"] = (1e-3, 3.0)
+        log = (*box.log_scale, "natural_frequency", "damping_ratio")
+        return SearchBox(box.template, bounds, log)
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        return _piezo_shape(self)

@@ -18,6 +18,7 @@ from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
     AbstractHysteresisModel,
+    BoucWenShape,
     as_parameter,
     hysteretic_rate,
     read_input,
@@ -176,6 +177,16 @@ class ExtendedPiezo(AbstractHysteresisModel):
             dynamic=True,
             natural_frequency=natural_frequency,
             damping_ratio=damping_ratio,
+        )
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        """(A1, beta1, gamma1, n) of the base law (skew = 0, no rate effects)."""
+        return BoucWenShape(
+            self.A1,
+            self.beta1,
+            self.gamma1,
+            self.n,
+            names=("A1", "beta1", "gamma1", "n"),
         )
 
     def drive(self, path, t, interval=None, frac=None) -> ShiftedDrive:

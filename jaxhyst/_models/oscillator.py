@@ -4,10 +4,18 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._smoothing import AbstractSmoothing, ExactSign
-from .base import AbstractHysteresisModel, as_parameter, hysteretic_rate
+from .base import (
+    AbstractHysteresisModel,
+    BoucWenShape,
+    DataScales,
+    SearchBox,
+    as_parameter,
+    hysteretic_rate,
+)
 
 
 class HystereticOscillator(AbstractHysteresisModel):
@@ -56,3 +64,37 @@ class HystereticOscillator(AbstractHysteresisModel):
 
     def output(self, t, state, drive):
         return state[0]
+
+    def default_bounds(
+        self, scales: DataScales, *, gauge: bool = True, nu_free: bool = False
+    ) -> SearchBox:
+        """Bounds set by the data's scales, not by any known answer: with
+        k0 = rms(u)/rms(y) (a stiffness; u is a force, y a displacement) and the
+        Nyquist frequency f_N, stiffness and alpha in k0*[1e-2, 10], mass such that
+        sqrt(k0/m) spans 1 Hz to f_N, damping/k0 from 1e-5 s to 1 s (all four on a
+        log scale), and beta*gamma, beta*delta in +-5/rms(y). `nu` stays at the
+        template's value unless `nu_free` (then in [1, 3]). The model has no gauge
+        (`gauge` is ignored)."""
+        su, sy = scales.input_rms, scales.output_rms
+        k0 = su / sy
+        nyquist = 0.5 * scales.sample_rate
+        bounds = {
+            "mass": (k0 / (2 * np.pi * nyquist) ** 2, k0 / (2 * np.pi * 1.0) ** 2),
+            "damping": (1e-5 * k0, 1.0 * k0),
+            "stiffness": (1e-2 * k0, 10 * k0),
+            "alpha": (1e-2 * k0, 10 * k0),
+            "beta_gamma": (-5 / sy, 5 / sy),
+            "beta_delta": (-5 / sy, 5 / sy),
+        }
+        if nu_free:
+            bounds["nu"] = (1.0, 3.0)
+        return SearchBox(self, bounds, ("mass", "damping", "stiffness", "alpha"))
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        return BoucWenShape(
+            self.alpha,
+            self.beta_gamma,
+            self.beta_delta,
+            self.nu,
+            names=("alpha", "beta_gamma", "beta_delta", "nu"),
+        )

@@ -35,7 +35,7 @@ from jaxtyping import Array, Float
 
 from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
-from .base import AbstractHysteresisModel, as_parameter
+from .base import AbstractHysteresisModel, BoucWenShape, as_parameter
 from .bouc_wen import BoucWen
 
 
@@ -154,6 +154,12 @@ class StructuralBoucWen(AbstractHysteresisModel):
             time_center=(inputs.t0 + inputs.t1) / 2,
             time_scale=(inputs.t1 - inputs.t0) / 2,
             smoothing=base.smoothing,
+        )
+
+    def bouc_wen_shape(self) -> BoucWenShape:
+        """(A, beta, gamma, n) of the undegraded, symmetric law (skew = 0)."""
+        return BoucWenShape(
+            self.A, self.beta, self.gamma, self.n, names=("A", "beta", "gamma", "n")
         )
 
     def saturation(self) -> Float[Array, ""]:

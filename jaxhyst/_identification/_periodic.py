@@ -31,24 +31,20 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
-from ._identify import (
-    AbstractPolish,
-    Fit,
-    Identifiability,
-    LevenbergMarquardtPolish,
-    Problem,
-    _swarm_objective,
-    best_seed,
-)
-from ._inputs import AbstractInterpolation, CubicInterpolation, InputPath
-from ._metrics import error_metrics
-from ._models.base import AbstractHysteresisModel
-from ._models.oscillator import HystereticOscillator
-from ._params import ParameterSpace
-from ._placement import moved_to, running_on, serial_device
-from ._recording import Recording
-from ._simulate import RK4, AbstractSimulationSolver, simulate
-from ._swarm import MPSO, run_swarm
+from .._inputs import AbstractInterpolation, CubicInterpolation, InputPath
+from .._metrics import error_metrics
+from .._models.base import AbstractHysteresisModel, DataScales
+from .._models.oscillator import HystereticOscillator
+from .._params import ParameterSpace
+from .._placement import moved_to, running_on, serial_device
+from .._recording import Recording
+from .._simulate import RK4, AbstractSimulationSolver, simulate
+from .._status import raise_unless_successful
+from .._swarm import MPSO
+from ._identifiability import Identifiability, identifiability
+from ._identify import Fit, PolishStage, fit_status, refine, search
+from ._polish import AbstractPolish, LevenbergMarquardtPolish
+from ._problem import Problem
 
 
 def bandlimited_upsample(
@@ -213,9 +209,22 @@ class PeriodicSimulation(eqx.Module):
         return np.asarray(_steady_output(self, model, self.path(u, float(dt)), u.size))
 
 
+class SteadyOutput(eqx.Module):
+    """The steady-state output of a model over one period of an input path:
+    `SteadyOutput(simulation, path, period)(model)` (a module, so compiled callers
+    reuse their compilation)."""
+
+    simulation: PeriodicSimulation
+    path: InputPath
+    period: int = eqx.field(static=True)
+
+    def __call__(self, model: AbstractHysteresisModel) -> Float[Array, " n"]:
+        return self.simulation.output(model, self.path, self.period)
+
+
 @eqx.filter_jit
 def _steady_output(simulation, model, path, period):
-    return simulation.output(model, path, period)
+    return SteadyOutput(simulation, path, period)(model)
 
 
 def periodic_problem(
@@ -254,31 +263,11 @@ def oscillator_space(
     *,
     nu_free: bool = False,
 ) -> ParameterSpace:
-    """A log-scaled search space for `HystereticOscillator` set by the data's scales,
-    not by any known answer: with k0 = rms(u)/rms(y) (a stiffness) and the Nyquist
-    frequency f_N, stiffness and alpha in k0*[1e-2, 10], mass such that sqrt(k0/m)
-    spans 1 Hz to f_N, damping/k0 from 1e-5 s to 1 s, and beta*gamma,
-    beta*delta linear in +-5/rms(y). `nu` stays at the template's value unless
-    `nu_free` (then in [1, 3])."""
-    su = float(np.sqrt(np.mean(np.asarray(recording.u) ** 2)))
-    sy = float(np.sqrt(np.mean(np.asarray(recording.y) ** 2)))
-    if not (su > 0 and sy > 0):
-        raise ValueError("oscillator_space: input and output must not be all zero.")
-    k0 = su / sy
-    nyquist = 0.5 * recording.sample_rate
-    bounds = {
-        "mass": (k0 / (2 * np.pi * nyquist) ** 2, k0 / (2 * np.pi * 1.0) ** 2),
-        "damping": (1e-5 * k0, 1.0 * k0),
-        "stiffness": (1e-2 * k0, 10 * k0),
-        "alpha": (1e-2 * k0, 10 * k0),
-        "beta_gamma": (-5 / sy, 5 / sy),
-        "beta_delta": (-5 / sy, 5 / sy),
-    }
-    if nu_free:
-        bounds["nu"] = (1.0, 3.0)
-    return ParameterSpace(
-        template, bounds, log_scale=["mass", "damping", "stiffness", "alpha"]
-    )
+    """`HystereticOscillator.default_bounds` for `recording` as a space (log-scaled,
+    set by the data's scales, not by any known answer); `nu` stays at the
+    template's value unless `nu_free` (then in [1, 3])."""
+    box = template.default_bounds(DataScales.of(recording), nu_free=nu_free)
+    return ParameterSpace(box.template, box.bounds, log_scale=box.log_scale)
 
 
 def periodic_identifiability(
@@ -290,62 +279,18 @@ def periodic_identifiability(
     noise_sigma: float | None = None,
     threshold: float = 1e-6,
 ) -> Identifiability:
-    """`identifiability` for a steady-state fit: the Jacobian of the scored period's
-    output with respect to relative parameter changes (d y / d log|theta|), its
-    singular values, and the standard errors and correlations of the `free`
-    parameters from sigma^2 (J^T J)^-1, with sigma the noise of the fitted data
-    (`noise_sigma`, default: the residual RMS)."""
-    names = tuple(model.parameter_names)
-    values = jnp.stack([jnp.asarray(v, float) for v in model.parameters().values()])
-    scale = jnp.where(values != 0, values, 1.0)
+    """`identifiability` for a steady-state fit: the sensitivities of the scored
+    period's output, the standard errors and correlations of the `free` parameters
+    with sigma the noise of the fitted data (`noise_sigma`, default: the residual
+    RMS)."""
     path = simulation.path(period.u, period.dt)
-    n = period.num_samples
-
-    def outputs(relative):
-        new = eqx.tree_at(
-            lambda m: [getattr(m, k) for k in names],
-            model,
-            list(values + relative * scale),
-        )
-        return simulation.output(new, path, n)
-
-    jac = np.nan_to_num(
-        np.asarray(jax.jit(jax.jacfwd(outputs))(jnp.zeros_like(values)))
-    )
-    norm = np.linalg.norm(jac, axis=0)
-    safe = np.where(norm > 0, norm, 1.0)
-    _, sv, vt = np.linalg.svd(jac / safe, full_matrices=False)
-    relative = sv / sv[0] if sv[0] > 0 else sv
-    null = []
-    for s, v in zip(relative, vt):
-        if s < threshold:
-            v = v / safe
-            v = v / v[np.argmax(np.abs(v))]
-            null.append(
-                {k: round(float(w), 6) for k, w in zip(names, v) if abs(w) > 1e-3}
-            )
-    residual = np.asarray(_steady_output(simulation, model, path, n)) - period.y
-    if noise_sigma is None:
-        noise_sigma = float(np.sqrt(np.sum(residual**2) / max(1, n - len(free))))
-    columns = [names.index(k) for k in free]
-    # Columns are d y / d(relative change) = (d y / d theta) * theta: back to theta.
-    jf = jac[:, columns] / np.asarray(scale)[columns]
-    jtj = jf.T @ jf
-    if np.linalg.cond(jtj) < 1e14:
-        cov = noise_sigma**2 * np.linalg.inv(jtj)
-        se = np.sqrt(np.abs(np.diag(cov)))
-        corr = cov / np.outer(se, se)
-    else:
-        se = np.full(len(free), np.nan)
-        corr = np.full((len(free), len(free)), np.nan)
-    return Identifiability(
-        names,
-        relative,
-        null,
-        tuple(free),
-        corr,
-        {k: float(e) for k, e in zip(free, se)},
-        threshold,
+    return identifiability(
+        model,
+        SteadyOutput(simulation, path, period.num_samples),
+        jnp.asarray(period.y),
+        free=free,
+        noise_sigma=noise_sigma,
+        threshold=threshold,
     )
 
 
@@ -373,6 +318,7 @@ def fit_periodic(
     analyse: bool = True,
     progress: bool = False,
     polish_device: jax.Device | None = None,
+    throw: bool = True,
 ) -> Fit:
     """Fit `template` (its class and fixed parameters; the free ones are `space`'s)
     to the steady-state period `period` (e.g. `average_periods(...).recording`).
@@ -391,6 +337,7 @@ def fit_periodic(
     - `noise_sigma`: noise of `period`'s output, for the standard errors (default:
       the residual RMS); for an average of P periods, `PeriodicAverage.mean_sigma`.
     - `polish_device`: where stages 2-3 and the analysis run, as in `identify`.
+    - `throw`: raise when the fit's status is not successful, as in `identify`.
 
     Returns a `Fit` whose `predicted` and `metrics` are over the period;
     `fit.polish` is the last polish stage that ran, `fit.timing` has every stage's
@@ -409,44 +356,32 @@ def fit_periodic(
     device = serial_device(polish_device, "polish_device")
     t_start = time.perf_counter()
     timing: dict[str, float] = {}
-    coarse = periodic_problem(space, period, coarse_simulation)
     seeds = []
     swarm_result = None
     if swarm is not None:
-        short = periodic_problem(
-            space, period, coarse_simulation, samples=swarm_samples
-        )
-        swarm_result = run_swarm(
-            _swarm_objective,
-            jnp.zeros(space.dimension),
-            jnp.ones(space.dimension),
+        swarm_result = search(
+            periodic_problem(space, period, coarse_simulation, samples=swarm_samples),
             swarm,
             key,
-            args=short,
+            stall_iterations=stall_iterations,
             chunk_size=10,
             progress=progress,
-            stall_iterations=stall_iterations,
-            stall_tolerance=1e-4 * float(np.max(np.abs(period.y))),
         )
         timing["swarm_s"] = swarm_result.wall_seconds
         seeds.append(swarm_result.best_x)
     if start is not None:
         seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
-    space, coarse, seeds = moved_to((space, coarse, seeds), device)
+    stages = [
+        PolishStage(
+            "prepolish", periodic_problem(space, period, coarse_simulation), prepolish
+        ),
+        PolishStage("polish", periodic_problem(space, period, simulation), polish),
+    ]
+    stages, seeds = moved_to((stages, seeds), device)
     with running_on(device):
-        z = best_seed(coarse, seeds)
-        polish_result = None
-        if prepolish is not None:
-            polish_result = prepolish.run(coarse, z)
-            z = polish_result.z
-            timing["prepolish_s"] = polish_result.wall_seconds
-        if polish is not None:
-            problem = periodic_problem(space, period, simulation)
-            polish_result = polish.run(problem, z)
-            z = polish_result.z
-            timing["polish_s"] = polish_result.wall_seconds
-        fitted = space.to_model(z)
-        predicted = simulation(fitted, period.u, period.dt)
+        z, polish_result = refine(stages, seeds, timing)
+        fitted = stages[0].problem.space.to_model(z)
+        predicted = jnp.asarray(simulation(fitted, period.u, period.dt))
         metrics = error_metrics(period.y, predicted)
         timing["fit_s"] = time.perf_counter() - t_start
         report = None
@@ -457,12 +392,16 @@ def fit_periodic(
             )
             timing["identifiability_s"] = time.perf_counter() - t0
     timing["total_s"] = time.perf_counter() - t_start
-    return Fit(
+    fit = Fit(
         fitted,
-        jnp.asarray(predicted),
-        {k: float(v) for k, v in metrics.items()},
+        predicted,
+        metrics,
         swarm_result,
         polish_result,
         report,
         timing,
+        fit_status(swarm_result, polish_result, [predicted]),
     )
+    if throw:
+        raise_unless_successful(fit.result, "fit_periodic")
+    return fit

@@ -1,0 +1,229 @@
+"""The persistent compilation cache of the CLI: where it lives, how the environment
+variable moves or disables it, what happens when it cannot be written, and that a
+second process loads what a first one compiled (fresh processes, no timings)."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import jax
+import pytest
+
+from jaxhyst import _cache
+from jaxhyst._cache import compilation_cache_dir, enable_compilation_cache
+
+
+_OPTIONS = (
+    "jax_compilation_cache_dir",
+    "jax_persistent_cache_min_compile_time_secs",
+    "jax_persistent_cache_min_entry_size_bytes",
+)
+
+
+def _option(name: str):
+    return getattr(jax.config, name)
+
+
+@pytest.fixture
+def jax_cache_config(monkeypatch):
+    """Restore JAX's cache options afterwards, and start with no warning issued."""
+    monkeypatch.setattr(_cache, "_warned", False)
+    before = {name: _option(name) for name in _OPTIONS}
+    yield before
+    for name, value in before.items():
+        jax.config.update(name, value)
+
+
+@pytest.fixture
+def no_env(monkeypatch):
+    for name in ("JAXHYST_CACHE_DIR", "XDG_CACHE_HOME", "LOCALAPPDATA"):
+        monkeypatch.delenv(name, raising=False)
+    return monkeypatch
+
+
+@pytest.mark.parametrize(
+    "platform, xdg, parts",
+    [
+        ("linux", False, (".cache",)),
+        ("linux", True, ("xdg",)),
+        ("freebsd14", False, (".cache",)),
+        ("darwin", False, ("Library", "Caches")),
+        ("darwin", True, ("Library", "Caches")),  # XDG is not macOS's convention
+    ],
+)
+def test_default_dir_unix(no_env, tmp_path, platform, xdg, parts):
+    no_env.setattr(sys, "platform", platform)
+    no_env.setenv("HOME", str(tmp_path))
+    if xdg:
+        no_env.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert compilation_cache_dir() == tmp_path.joinpath(*parts, "jaxhyst", "jax")
+
+
+def test_relative_xdg_cache_home_is_ignored(no_env, tmp_path):
+    no_env.setattr(sys, "platform", "linux")
+    no_env.setenv("HOME", str(tmp_path))
+    no_env.setenv("XDG_CACHE_HOME", "relative/cache")
+    assert compilation_cache_dir() == tmp_path / ".cache" / "jaxhyst" / "jax"
+
+
+def test_default_dir_windows(no_env, tmp_path):
+    no_env.setattr(sys, "platform", "win32")
+    no_env.setenv("LOCALAPPDATA", str(tmp_path / "Local"))
+    assert compilation_cache_dir() == tmp_path / "Local" / "jaxhyst" / "jax"
+    no_env.delenv("LOCALAPPDATA")
+    no_env.setenv("HOME", str(tmp_path))
+    expected = tmp_path / "AppData" / "Local" / "jaxhyst" / "jax"
+    assert compilation_cache_dir() == expected
+
+
+def test_env_var_moves_it(no_env, tmp_path):
+    no_env.setenv("JAXHYST_CACHE_DIR", str(tmp_path / "elsewhere"))
+    no_env.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert compilation_cache_dir() == tmp_path / "elsewhere"
+    no_env.setenv("HOME", str(tmp_path))
+    no_env.setenv("JAXHYST_CACHE_DIR", "~/mine")
+    assert compilation_cache_dir() == tmp_path / "mine"
+    no_env.chdir(tmp_path)
+    no_env.setenv("JAXHYST_CACHE_DIR", "relative")
+    assert compilation_cache_dir() == tmp_path / "relative"  # made absolute
+
+
+@pytest.mark.parametrize("value", ["", "  "])
+def test_empty_env_var_turns_it_off(no_env, jax_cache_config, capsys, value):
+    no_env.setenv("JAXHYST_CACHE_DIR", value)
+    assert compilation_cache_dir() is None
+    assert enable_compilation_cache() is None
+    for name, before in jax_cache_config.items():
+        assert _option(name) == before  # configured nothing
+    assert capsys.readouterr().err == ""
+
+
+def test_enable_configures_jax(no_env, jax_cache_config, tmp_path, capsys):
+    target = tmp_path / "new" / "cache"
+    no_env.setenv("JAXHYST_CACHE_DIR", str(target))
+    assert enable_compilation_cache() == target
+    assert target.is_dir() and list(target.iterdir()) == []  # the probe is gone
+    if os.name == "posix":
+        assert target.stat().st_mode & 0o777 == 0o700
+    assert _option("jax_compilation_cache_dir") == str(target)
+    assert _option("jax_persistent_cache_min_compile_time_secs") == 0.0
+    assert _option("jax_persistent_cache_min_entry_size_bytes") == -1
+    assert enable_compilation_cache() == target  # again: harmless
+    assert capsys.readouterr().err == ""
+
+
+def _unusable(tmp_path: Path, how: str, monkeypatch) -> Path:
+    if how == "under a file":
+        blocker = tmp_path / "a-file"
+        blocker.write_text("not a folder")
+        return blocker / "cache"
+    if how == "write refused":  # as a read-only folder is, even for root
+        folder = tmp_path / "refusing"
+        folder.mkdir()
+
+        def refuse(*args, **kwargs):
+            raise PermissionError(13, "Permission denied")
+
+        monkeypatch.setattr(_cache.tempfile, "mkstemp", refuse)
+        return folder
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    folder.chmod(0o500)
+    return folder / "cache"
+
+
+@pytest.mark.parametrize(
+    "how",
+    [
+        "under a file",
+        "write refused",
+        pytest.param(
+            "read-only parent",
+            marks=pytest.mark.skipif(
+                os.name != "posix" or os.geteuid() == 0,
+                reason="needs POSIX permissions that apply (not root)",
+            ),
+        ),
+    ],
+)
+def test_unwritable_dir_warns_once_and_runs_without(
+    no_env, jax_cache_config, tmp_path, capsys, how
+):
+    target = _unusable(tmp_path, how, no_env)
+    no_env.setenv("JAXHYST_CACHE_DIR", str(target))
+    try:
+        assert enable_compilation_cache() is None
+        assert enable_compilation_cache() is None
+    finally:
+        if target.parent.name == "read-only":
+            target.parent.chmod(0o700)  # so that pytest can remove tmp_path
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err  # one line, once
+    assert str(target) in err and "JAXHYST_CACHE_DIR" in err
+    assert err.startswith("jaxhyst: warning: ")
+    for name, before in jax_cache_config.items():
+        assert _option(name) == before
+
+
+_CHILD = textwrap.dedent(
+    """
+    import json
+
+    import jax
+    import jax.numpy as jnp
+
+    from jaxhyst import enable_compilation_cache
+
+    events = {"hits": 0, "misses": 0}
+
+
+    def listener(event, **kwargs):
+        if event == "/jax/compilation_cache/cache_hits":
+            events["hits"] += 1
+        elif event == "/jax/compilation_cache/cache_misses":  # = entries written
+            events["misses"] += 1
+
+
+    jax.monitoring.register_event_listener(listener)
+    path = enable_compilation_cache()
+    value = jax.jit(lambda x: jnp.sin(x) * 2.0 + x**2)(jnp.linspace(0.0, 1.0, 5))
+    print(json.dumps({"path": str(path), "sum": float(value.sum()), **events}))
+    """
+)
+
+
+def _run_child(cache: Path) -> dict:
+    env = dict(os.environ, JAXHYST_CACHE_DIR=str(cache), JAX_PLATFORMS="cpu")
+    env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    env.pop("JAX_ENABLE_COMPILATION_CACHE", None)
+    result = subprocess.run(
+        [sys.executable, "-c", _CHILD],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "warning" not in result.stderr.lower(), result.stderr
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def _entries(cache: Path) -> set[str]:
+    return {p.name for p in cache.iterdir() if p.name.endswith("-cache")}
+
+
+def test_second_process_compiles_nothing_new(tmp_path):
+    cache = tmp_path / "jax-cache"
+    first = _run_child(cache)
+    assert first["path"] == str(cache)
+    assert first["misses"] >= 1  # compiled, and wrote what it compiled
+    written = _entries(cache)
+    assert len(written) >= first["misses"]
+    second = _run_child(cache)
+    assert second["misses"] == 0  # compiled nothing that was not in the cache
+    assert second["hits"] >= 1
+    assert _entries(cache) == written
+    assert second["sum"] == first["sum"]
