@@ -3,7 +3,7 @@ frequencies determines that one frequency leaves loose.
 
 A piezo stage with dynamics (`PiezoStage`, eq. 3-4: a mass-spring-damper driven by
 the hysteresis, natural frequency f_n, damping ratio zeta) is recorded under
-paper-like raised-cosine sines, 0-100 V, at a low frequency and at faster ones.
+paper-like raised-cosine sines, 0-4 V as `paper_u1`, at a low frequency and at faster ones.
 Far below f_n the stage only delays the output by about 2*zeta/omega_n: one slow
 record pins that ratio but hardly f_n and zeta apart. Faster records add the
 (f/f_n)^2 magnitude term that separates them. Each fit is a full `identify`
@@ -39,10 +39,10 @@ SOLVER = jh.RK4(substeps=4)
 
 
 def record(frequency: float, *, seed: int, periods: int = 3, noise: float = 0.002):
-    """A raised-cosine sine 0-100 V at `frequency`, `periods` periods, the stage's
+    """A raised-cosine sine 0-4 V at `frequency`, `periods` periods, the stage's
     output with white noise of `noise` times its peak."""
     t = np.arange(int(round(periods * RATE / frequency)) + 1) / RATE
-    u = 50.0 * (1 - np.cos(2 * np.pi * frequency * t))
+    u = 2.0 * (1 - np.cos(2 * np.pi * frequency * t))
     y = np.asarray(jh.simulate(TRUTH, jh.InputPath(0.0, 1 / RATE, u), SOLVER))
     sigma = noise * float(np.max(np.abs(y)))
     rng = np.random.default_rng([seed, int(frequency * 1000)])
@@ -60,8 +60,11 @@ def summarise(fit: jh.Fit) -> dict:
         name: errors[name] / abs(float(getattr(fit.model, name)))
         for name in ("natural_frequency", "damping_ratio")
     }
+    i = report.free_names.index("natural_frequency")
+    j = report.free_names.index("damping_ratio")
     return {
         "status": jh.status_name(fit.result),
+        "correlation_fn_zeta": float(report.correlations[i, j]),
         "rmse": fit.metrics["rmse"],
         "per_recording": [m.to_dict() for m in fit.per_recording],
         "natural_frequency": float(fit.model.natural_frequency),
@@ -103,8 +106,8 @@ def main() -> None:
             f"{label}: {row['status']}, RMSE {row['rmse']:.3g} m; f_n "
             f"{row['natural_frequency']:.4g} Hz (truth 120) ± "
             f"{100 * se['natural_frequency']:.3g} %, zeta {row['damping_ratio']:.4g} "
-            f"(truth 0.4) ± {100 * se['damping_ratio']:.3g} %; smallest relative "
-            f"singular value {row['smallest_relative_singular_value']:.3g}; "
+            f"(truth 0.4) ± {100 * se['damping_ratio']:.3g} %, correlation "
+            f"{row['correlation_fn_zeta']:+.4f}; "
             f"{time.perf_counter() - start:.1f} s",
             flush=True,
         )

@@ -86,8 +86,9 @@ def enable_compilation_cache() -> Path | None:
     well under JAX's default threshold of one second each, and together they are
     most of the start-up time. XLA's extra caches (`jax_persistent_cache_enable_xla_
     caches`: GPU autotuning and kernel caches) are left at JAX's default; XLA:CPU
-    has none. Call it before the first computation (JAX opens the cache once per
-    process, at the first compilation); calling it again is harmless.
+    has none. Call it before the computations it should cache: JAX opens the folder
+    at the first compilation after it is set and keeps it for the rest of the
+    process. Calling it again is harmless.
 
     Entries are keyed by a hash of the program, the jaxlib version, the backend,
     the XLA flags and the compile options, so several versions of jaxhyst or JAX may
@@ -99,12 +100,14 @@ def enable_compilation_cache() -> Path | None:
     unless a maximum cache size is set, which this does not do), and never writes
     over an entry that exists. Two processes that share the folder therefore never
     block each other; a process that reads an entry while another is still writing
-    it may find it incomplete, in which case decompression fails its checksum, JAX
-    warns ("Error reading persistent compilation cache entry") and compiles the
-    program itself. The worst case is a warning and a compilation, never a wrong
-    result or a failed command; a file left truncated by a process killed while
-    writing it keeps causing that warning until the folder is deleted. The cache
-    holds executable code: do not point it at a folder that others can write.
+    it may find it incomplete, in which case its decompression fails (a truncated
+    zlib or zstandard stream does not decompress), JAX warns ("Error reading persistent
+    compilation cache entry") and compiles the program itself. The worst case is a
+    warning and a compilation, never a wrong result, nor a failed command unless
+    warnings are turned into errors (`python -W error`, pytest's `filterwarnings =
+    error`); a file left truncated by a process killed while writing it keeps
+    causing that warning until the folder is deleted. The cache holds executable
+    code: do not point it at a folder that others can write.
 
     **Returns:**
 

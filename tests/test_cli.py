@@ -269,7 +269,7 @@ def test_plots_check_their_inputs(tmp_path):
 
 # Small swarms keep these quick; the recording is 8 s of u1 at 250 Hz (2001 samples).
 QUICK = ["--particles", "16", "--iterations", "30"]
-FIT_KEYS = {"model", "parameters", "metrics", "identifiability", "timing"}
+FIT_KEYS = {"model", "parameters", "metrics", "identifiability", "timing", "status"}
 METRIC_KEYS = {"rmse", "mad", "mrd", "mae", "nrmsd"}
 
 
@@ -397,6 +397,38 @@ def test_fit_corrected_runs_the_two_stages(short_recording, tmp_path, capsys):
     total = sum(stage["total_s"] for stage in data["stages"])
     assert data["timing"]["total_s"] == pytest.approx(total)
     assert "stages:" in capsys.readouterr().out
+
+
+def test_fit_several_recordings_reports_each(short_recording, tmp_path, capsys):
+    # A second test of the same system: the first 60 % of the record, renamed.
+    recording = jh.Recording.load(short_recording)
+    keep = int(0.6 * recording.num_samples)
+    second = tmp_path / "second.csv"
+    jh.Recording(
+        recording.t[:keep], recording.u[:keep], recording.y[:keep], name="second"
+    ).save(second)
+    out = tmp_path / "joint.json"
+    argv = ["fit", str(short_recording), str(second), "--json", str(out)]
+    argv += ["--plots", str(tmp_path / "figures"), *QUICK]
+    assert main(argv) == 0
+    stdout = capsys.readouterr().out
+    data = _strict_json(out)
+    assert data["status"] in ("successful", "max_steps_reached")
+    assert data["polish"]["status"] == data["status"]
+    assert "recording" not in data
+    assert [r["samples"] for r in data["recordings"]] == [2001, keep]
+    per = data["metrics"]["per_recording"]
+    assert [m["recording"] for m in per] == ["short", "second"]
+    assert METRIC_KEYS <= set(per[0])
+    # The joint RMSE pools the samples of both records.
+    pooled = np.sqrt(
+        (per[0]["rmse"] ** 2 * 2001 + per[1]["rmse"] ** 2 * keep) / (2001 + keep)
+    )
+    assert data["metrics"]["rmse"] == pytest.approx(pooled, rel=1e-9)
+    assert "metrics per recording:" in stdout and "on second:" in stdout
+    for name in ("short", "second"):
+        figure = tmp_path / "figures" / name / "fit_loop.png"
+        assert figure.read_bytes().startswith(PNG_SIGNATURE)
 
 
 def test_fit_preset_and_swarm_options(short_recording, capsys):
