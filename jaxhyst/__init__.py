@@ -46,6 +46,7 @@ from ._identification._identifiability import (
     Identifiability as Identifiability,
     covariance as covariance,
     identifiability as identifiability,
+    identifiability_of as identifiability_of,
     output_jacobian as output_jacobian,
 )
 from ._identification._identify import (

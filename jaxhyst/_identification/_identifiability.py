@@ -136,11 +136,35 @@ def identifiability(
     for the standard errors (default: the residual RMS). Raise `threshold` to flag
     directions that are merely poorly determined."""
     names = tuple(model.parameter_names)
-    free = names if free is None else tuple(free)
     if isinstance(outputs, InputPath):
         outputs = RecordSimulation(outputs, solver)
     jac, simulated = output_jacobian(model, names, outputs)
-    residual = simulated - np.asarray(measured).reshape(-1)
+    return identifiability_of(
+        model,
+        jac,
+        simulated - np.asarray(measured).reshape(-1),
+        free=free,
+        weights=weights,
+        noise_sigma=noise_sigma,
+        threshold=threshold,
+    )
+
+
+def identifiability_of(
+    model: AbstractHysteresisModel,
+    jacobian: Float[np.ndarray, "n p"],
+    residual: Float[np.ndarray, " n"],
+    *,
+    free: Sequence[str] | None = None,
+    weights: Float[Array, "*records n"] | None = None,
+    noise_sigma: float | None = None,
+    threshold: float = 1e-6,
+) -> Identifiability:
+    """`identifiability` from a Jacobian already computed (`output_jacobian` over all
+    of `model.parameter_names`) and the residual (simulated - measured) at it."""
+    names = tuple(model.parameter_names)
+    free = names if free is None else tuple(free)
+    jac = jacobian
     if weights is not None:
         keep = np.asarray(weights).reshape(-1) != 0
         jac, residual = jac[keep], residual[keep]

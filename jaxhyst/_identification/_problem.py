@@ -147,7 +147,9 @@ def model_at(space: ParameterSpace, z: Float[Array, " d"]) -> AbstractHysteresis
 
 def best_seed(problem: Problem, seeds: list[Array]) -> Array:
     """The starting point with the lowest finite RMSE (the first one if none is
-    finite)."""
+    finite; a single seed is returned without being scored)."""
+    if len(seeds) == 1:
+        return seeds[0]
     scores = [float(problem_rmse(problem, z)) for z in seeds]
     return seeds[int(np.argmin(np.where(np.isfinite(scores), scores, np.inf)))]
 
