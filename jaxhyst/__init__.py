@@ -57,6 +57,7 @@ from ._identification._identify import (
     joint_scales as joint_scales,
     refine as refine,
     search as search,
+    starting_points as starting_points,
 )
 from ._identification._periodic import (
     PeriodicAverage as PeriodicAverage,

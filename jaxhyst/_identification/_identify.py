@@ -11,7 +11,7 @@ swarm's best; identifiability is read off the Jacobian at the result.
 """
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import equinox as eqx
@@ -152,6 +152,39 @@ def search(
         stall_tolerance=1e-4 * float(problem.output_scale),
         throw=False,
     )
+
+
+def starting_points(
+    space: ParameterSpace,
+    swarm_problem: Callable[[], Problem],
+    swarm: MPSO | None,
+    key: PRNGKeyArray,
+    start: AbstractHysteresisModel | None,
+    timing: dict[str, float],
+    *,
+    stall_iterations: int | None,
+    chunk_size: int,
+    progress: bool,
+) -> tuple[list[Array], SwarmResult | None]:
+    """The seeds of the polish: the swarm's best over `swarm_problem()` (unless
+    `swarm` is None) and `start`'s coordinates (unless None, clipped to half a box
+    beyond the bounds); the swarm's seconds go into `timing`."""
+    seeds = []
+    result = None
+    if swarm is not None:
+        result = search(
+            swarm_problem(),
+            swarm,
+            key,
+            stall_iterations=stall_iterations,
+            chunk_size=chunk_size,
+            progress=progress,
+        )
+        timing["swarm_s"] = result.wall_seconds
+        seeds.append(result.best_x)
+    if start is not None:
+        seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
+    return seeds, result
 
 
 class PolishStage(eqx.Module):
@@ -330,22 +363,18 @@ def identify(
     ]
     problem = per_record[0] if len(records) == 1 else stack_problems(per_record)
     timing: dict[str, float] = {}
-    swarm_result = None
-    seeds = []
-    if swarm is not None:
-        stride = swarm_stride or min(swarm_samples_per_step(r.u) for r in records)
-        swarm_result = search(
-            swarm_problem(problem, stride),
-            swarm,
-            key,
-            stall_iterations=stall_iterations,
-            chunk_size=20,
-            progress=progress,
-        )
-        timing["swarm_s"] = swarm_result.wall_seconds
-        seeds.append(swarm_result.best_x)
-    if start is not None:
-        seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
+    stride = swarm_stride or min(swarm_samples_per_step(r.u) for r in records)
+    seeds, swarm_result = starting_points(
+        space,
+        lambda: swarm_problem(problem, stride),
+        swarm,
+        key,
+        start,
+        timing,
+        stall_iterations=stall_iterations,
+        chunk_size=20,
+        progress=progress,
+    )
     problem, seeds = moved_to((problem, seeds), device)
     with running_on(device):
         z, polish_result = refine(

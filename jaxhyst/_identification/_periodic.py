@@ -42,7 +42,7 @@ from .._simulate import RK4, AbstractSimulationSolver, simulate
 from .._status import raise_unless_successful
 from .._swarm import MPSO
 from ._identifiability import Identifiability, identifiability
-from ._identify import Fit, PolishStage, fit_status, refine, search
+from ._identify import Fit, PolishStage, fit_status, refine, starting_points
 from ._polish import AbstractPolish, LevenbergMarquardtPolish
 from ._problem import Problem
 
@@ -356,21 +356,19 @@ def fit_periodic(
     device = serial_device(polish_device, "polish_device")
     t_start = time.perf_counter()
     timing: dict[str, float] = {}
-    seeds = []
-    swarm_result = None
-    if swarm is not None:
-        swarm_result = search(
-            periodic_problem(space, period, coarse_simulation, samples=swarm_samples),
-            swarm,
-            key,
-            stall_iterations=stall_iterations,
-            chunk_size=10,
-            progress=progress,
-        )
-        timing["swarm_s"] = swarm_result.wall_seconds
-        seeds.append(swarm_result.best_x)
-    if start is not None:
-        seeds.append(jnp.clip(space.from_model(start), -0.5, 1.5))
+    seeds, swarm_result = starting_points(
+        space,
+        lambda: periodic_problem(
+            space, period, coarse_simulation, samples=swarm_samples
+        ),
+        swarm,
+        key,
+        start,
+        timing,
+        stall_iterations=stall_iterations,
+        chunk_size=10,
+        progress=progress,
+    )
     stages = [
         PolishStage(
             "prepolish", periodic_problem(space, period, coarse_simulation), prepolish
