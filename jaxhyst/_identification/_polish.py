@@ -16,7 +16,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from .._status import RESULTS
-from ._problem import Problem, problem_rmse
+from ._problem import Problem, problem_residuals, problem_rmse
 
 
 class PolishResult(eqx.Module):
@@ -80,11 +80,12 @@ class _Loop(eqx.Module):
 
 
 def _objective(least_squares: bool):
+    # The jitted forms: traced once, however often the solver's step calls them.
     def residuals(z, problem):
-        return problem.residuals(z), None
+        return problem_residuals(problem, z), None
 
     def mean_square(z, problem):
-        return jnp.mean(problem.residuals(z) ** 2), None
+        return jnp.mean(problem_residuals(problem, z) ** 2), None
 
     return residuals if least_squares else mean_square
 
@@ -99,7 +100,7 @@ def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_
     # fixed across steps, as in optimistix's own loop.
     state, static_state = eqx.partition(state, eqx.is_array)
     windows = -(-max_steps // window)
-    start = problem.rmse(z0)
+    start = problem_rmse(problem, z0)
     history = jnp.full(windows + 1, jnp.nan).at[0].set(start)
     no = jnp.array(False)
     loop = _Loop(
@@ -134,7 +135,7 @@ def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_
             one_step,
             (loop.z, loop.state, loop.steps, loop.terminate, loop.result),
         )
-        loss = problem.rmse(z)
+        loss = problem_rmse(problem, z)
         better = loss < loop.best
         return _Loop(
             z,

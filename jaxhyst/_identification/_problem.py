@@ -135,8 +135,15 @@ def swarm_objective(z: Float[Array, " d"], problem: Problem) -> Float[Array, ""]
 
 @eqx.filter_jit
 def problem_rmse(problem: Problem, z: Float[Array, " d"]) -> Float[Array, ""]:
-    """`problem.rmse(z)` as one compiled program."""
+    """`problem.rmse(z)` as one compiled program. Called inside other programs it
+    is traced once per process (JAX caches the trace), not once per call."""
     return problem.rmse(z)
+
+
+@eqx.filter_jit
+def problem_residuals(problem: Problem, z: Float[Array, " d"]) -> Float[Array, " m"]:
+    """`problem.residuals(z)`, traced once per process like `problem_rmse`."""
+    return problem.residuals(z)
 
 
 @eqx.filter_jit
