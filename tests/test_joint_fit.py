@@ -173,3 +173,29 @@ def test_polish_keeps_its_state_and_compiles_once():
         finally:
             logger.removeHandler(handler)
     assert not [m for m in records if "Compiling" in m and "_optimistix_loop" in m]
+
+
+def test_diagnose_refuses_a_diverged_base_fit(monkeypatch):
+    # The base fit's status reaches the diagnosis: a non-finite base fit is an
+    # error naming the recording, not a diagnosis of garbage.
+    import jaxhyst._diagnose._diagnose as engine
+
+    a, _ = _sine_record(1.0, 80.0, 4, seed=0, name="stage_test")
+    real_identify = engine.identify
+
+    def diverged(*args, **kwargs):
+        fit = real_identify(*args, **{**kwargs, "swarm": None, "start": TEMPLATE})
+        return fit.__class__(
+            fit.model,
+            fit.predicted,
+            fit.metrics,
+            fit.swarm,
+            fit.polish,
+            fit.identifiability,
+            fit.timing,
+            jh.RESULTS.nonfinite,
+        )
+
+    monkeypatch.setattr(engine, "identify", diverged)
+    with pytest.raises(ValueError, match="'stage_test' diverged"):
+        jh.diagnose(a, key=jax.random.key(0))

@@ -25,6 +25,7 @@ from .._models.base import AbstractHysteresisModel
 from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
 from .._simulate import RK4
+from .._status import RESULTS
 from .._swarm import MPSO
 from ._ambiguity import cannot_tell_rivals, confined, standing_in, unresolved
 from ._effects.base import AbstractEffect, RefitScales
@@ -248,6 +249,14 @@ def _base_fit(
             progress=progress,
             throw=False,
         )
+        # A base fit that ran out of polish steps is refined by every later
+        # refit; one whose output is not finite leaves nothing to diagnose.
+        if fit.result == RESULTS.nonfinite:
+            raise ValueError(
+                f"diagnose: the {ctx.family.base_name} base model's fit to "
+                f"{ctx.recording.name!r} diverged (non-finite output); check the "
+                "recording's columns and units, or pass base=<a fitted model>."
+            )
         base = fit.model
     current = ctx.family.extend(base, ctx.recording)
     predicted = _predict(ctx, current)
