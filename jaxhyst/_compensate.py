@@ -1,0 +1,237 @@
+"""Hysteresis compensation by causal per-sample inversion: the drive whose simulated
+output follows a reference, one sample at a time, inside a `lax.scan`.
+
+At every sample the model's state is known (it was driven by the drives found so
+far); the next drive is the value in the amplifier's range whose one-interval
+simulation puts the output on the reference. That is a scalar root of a function
+that is monotone in the drive for the quasi-static piezo models (the output rises
+with the present drive), found by bisection on the drive range: robust, no
+derivative through the sign switch at a reversal, and causal, so it runs sample by
+sample as a real-time feedforward would. A reference the model cannot reach inside
+the range gets the limit's drive, and those samples are reported.
+
+Models whose output lags the drive (stage dynamics, a drive read ahead in time)
+have no per-sample inverse: their output at a sample barely depends on that
+sample's drive. `compensate` refuses them rather than return an unstable drive.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Bool, Float
+
+from ._inputs import InputPath
+from ._models.base import AbstractHysteresisModel
+from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoStage
+from ._models.extended import ExtendedPiezo
+from ._simulate import RK4, AbstractSimulationSolver, simulate
+from ._status import RESULTS, raise_unless_successful
+
+
+class Compensation(eqx.Module):
+    """The result of `compensate`.
+
+    - `times`, `reference`: the reference y_ref(t) as given.
+    - `drive`: u(t), inside `limits`.
+    - `predicted`: the model's output under `drive` (what the stage would do if it
+      were the model).
+    - `at_limit`: samples whose reference the model cannot reach inside `limits`
+      (their drive is the nearer limit).
+    - `result`: `successful`, or `nonfinite` when the model diverged.
+    """
+
+    times: Float[Array, " n"]
+    reference: Float[Array, " n"]
+    drive: Float[Array, " n"]
+    predicted: Float[Array, " n"]
+    at_limit: Bool[Array, " n"]
+    limits: tuple[float, float]
+    result: RESULTS
+
+    @property
+    def error(self) -> Float[Array, " n"]:
+        """Predicted minus reference output."""
+        return self.predicted - self.reference
+
+    def tracking(self) -> dict[str, float]:
+        """RMS and maximum predicted tracking error in output units and in % of the
+        reference's stroke (its peak-to-peak range), and how many samples are at a
+        limit."""
+        error = np.asarray(self.error)
+        stroke = float(np.ptp(np.asarray(self.reference)))
+        rms = float(np.sqrt(np.mean(error**2)))
+        peak = float(np.max(np.abs(error)))
+        scale = 100.0 / stroke if stroke > 0 else float("nan")
+        return {
+            "rms_error": rms,
+            "max_error": peak,
+            "rms_error_percent_of_stroke": rms * scale,
+            "max_error_percent_of_stroke": peak * scale,
+            "samples_at_limit": int(np.count_nonzero(np.asarray(self.at_limit))),
+        }
+
+
+def _lags(model: AbstractHysteresisModel) -> str | None:
+    """Why `model` has no per-sample inverse, or None."""
+    if isinstance(model, PiezoStage):
+        return (
+            "PiezoStage's output is the position of a mass-spring-damper, which does "
+            "not respond to the present drive within one sample"
+        )
+    if isinstance(model, CorrectedPiezoBoucWen | ExtendedPiezo) and float(model.phi):
+        return (
+            f"{type(model).__name__} with phi = {float(model.phi):g} s reads the drive "
+            "shifted in time (V(t) = u(t + phi)), not at the present sample"
+        )
+    if isinstance(model, ExtendedPiezo) and model.dynamic:
+        return "this ExtendedPiezo has stage dynamics (inertia and damping)"
+    return None
+
+
+def _one_interval(model, solver, t, dt, state, u_now, u_next):
+    """Output and state one sample after `state` when the drive ramps from `u_now`
+    to `u_next`."""
+    path = InputPath(t, dt, jnp.stack([u_now, u_next]))
+    outputs, states = simulate(
+        model, path, solver, initial_state=state, return_state=True, throw=False
+    )
+    return outputs[1], states[1]
+
+
+def _bisect(function, target, lo, hi, iterations):
+    """The drive in [lo, hi] where the monotone `function` meets `target`, or the
+    nearer end when it does not (then `at_limit`)."""
+    f_lo, f_hi = function(lo), function(hi)
+    rising = f_hi >= f_lo
+    # Beyond an end by more than rounding (the reference may come from the end).
+    slack = 1e-9 * jnp.abs(f_hi - f_lo)
+    below = jnp.where(rising, target < f_lo - slack, target > f_lo + slack)
+    above = jnp.where(rising, target > f_hi + slack, target < f_hi - slack)
+
+    def halve(_, bracket):
+        a, b = bracket
+        mid = 0.5 * (a + b)
+        low_side = jnp.where(rising, function(mid) < target, function(mid) > target)
+        return jnp.where(low_side, mid, a), jnp.where(low_side, b, mid)
+
+    a, b = jax.lax.fori_loop(0, iterations, halve, (lo, hi))
+    u = jnp.where(below, lo, jnp.where(above, hi, 0.5 * (a + b)))
+    return u, below | above
+
+
+@eqx.filter_jit
+def _invert(model, solver, t0, dt, reference, lo, hi, iterations):
+    def output_at_rest(u):
+        path = InputPath(t0, dt, jnp.stack([u, u]))
+        return simulate(model, path, solver, throw=False)[0]
+
+    u0, limited0 = _bisect(output_at_rest, reference[0], lo, hi, iterations)
+    rest = InputPath(t0, dt, jnp.stack([u0, u0]))
+    state0 = simulate(model, rest, solver, return_state=True, throw=False)[1][0]
+
+    def step(carry, inputs):
+        state, u_now = carry
+        k, target = inputs
+        t = t0 + k * dt
+
+        def output(u):
+            return _one_interval(model, solver, t, dt, state, u_now, u)[0]
+
+        u, limited = _bisect(output, target, lo, hi, iterations)
+        y, new_state = _one_interval(model, solver, t, dt, state, u_now, u)
+        return (new_state, u), (u, y, limited)
+
+    index = jnp.arange(reference.size - 1, dtype=reference.dtype)
+    _, (drive, predicted, limited) = jax.lax.scan(
+        step, (state0, u0), (index, reference[1:])
+    )
+    y0 = simulate(model, rest, solver, throw=False)[0]
+    return (
+        jnp.concatenate([u0[None], drive]),
+        jnp.concatenate([y0[None], predicted]),
+        jnp.concatenate([limited0[None], limited]),
+    )
+
+
+def compensate(
+    model: AbstractHysteresisModel,
+    times: Float[ArrayLike, " n"],
+    reference: Float[ArrayLike, " n"],
+    *,
+    limits: tuple[float, float],
+    solver: AbstractSimulationSolver = RK4(),
+    iterations: int = 52,
+    throw: bool = True,
+) -> Compensation:
+    """The drive u(t) within `limits` (the amplifier's range, e.g. (0.0, 150.0) V)
+    whose simulated output follows `reference` at the uniformly spaced `times`, by
+    causal per-sample inversion (see the module docstring). `iterations` bisection
+    halvings of the drive range per sample (52 reach float64 resolution; fewer for
+    speed). Samples whose reference lies outside what the model reaches inside
+    `limits` are flagged in `at_limit`, never silently clipped. The model starts at
+    rest at the first sample's drive.
+
+    Raises `ValueError` for models with no per-sample inverse (stage dynamics, a
+    drive read ahead in time); `throw=True` raises when the model diverged.
+    """
+    if not isinstance(model, AbstractHysteresisModel):
+        raise TypeError(
+            f"compensate: model must be a jaxhyst model, got {type(model).__name__}."
+        )
+    why = _lags(model)
+    if why is not None:
+        raise ValueError(
+            f"compensate: {why}, so the drive cannot be found sample by sample; "
+            "compensate the quasi-static part (e.g. its PiezoBoucWen or the model "
+            "with phi = 0)."
+        )
+    t = np.asarray(times, dtype=float)
+    r = np.asarray(reference, dtype=float)
+    if t.ndim != 1 or r.shape != t.shape or t.size < 2:
+        raise ValueError(
+            f"compensate: times and reference must be 1-D of equal length >= 2, got "
+            f"shapes {t.shape} and {r.shape}."
+        )
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(r))):
+        raise ValueError("compensate: times and reference must be finite.")
+    steps = np.diff(t)
+    dt = float(np.mean(steps))
+    if not dt > 0 or np.max(np.abs(steps - dt)) > 1e-6 * dt:
+        raise ValueError(
+            "compensate: times must be uniformly spaced and increasing; resample "
+            "the reference first."
+        )
+    lo, hi = (float(v) for v in limits)
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise ValueError(
+            f"compensate: limits must be finite with lower < upper, got {limits}."
+        )
+    if (
+        not isinstance(iterations, int)
+        or isinstance(iterations, bool)
+        or iterations < 1
+    ):
+        raise ValueError(
+            f"compensate: iterations must be an integer >= 1, got {iterations!r}."
+        )
+    r_array = jnp.asarray(r)
+    dtype = r_array.dtype
+    drive, predicted, at_limit = _invert(
+        model,
+        solver,
+        jnp.asarray(t[0], dtype),
+        jnp.asarray(dt, dtype),
+        r_array,
+        jnp.asarray(lo, dtype),
+        jnp.asarray(hi, dtype),
+        iterations,
+    )
+    finite = bool(np.all(np.isfinite(np.asarray(predicted))))
+    result = RESULTS.successful if finite else RESULTS.nonfinite
+    out = Compensation(
+        jnp.asarray(t, dtype), r_array, drive, predicted, at_limit, (lo, hi), result
+    )
+    if throw:
+        raise_unless_successful(result, "compensate")
+    return out

@@ -1,0 +1,122 @@
+"""Hysteresis compensation by per-sample inversion."""
+
+import jax
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+
+
+PAPER = jh.PiezoBoucWen.paper_table4(3)
+
+
+def _path(rate=500.0):
+    return jh.sample(jh.paper_u1(), rate)
+
+
+@pytest.mark.parametrize(
+    "model",
+    [
+        PAPER,
+        jh.CorrectedPiezoBoucWen.from_piezo(PAPER, phi=0.0, eps=2e-7),
+        jh.ExtendedPiezo.around(PAPER, jh.sample(jh.paper_u1(), 500.0)).replace(
+            creep_slow=0.1 * PAPER.k1, eps=1e-7, skew=0.5
+        ),
+    ],
+    ids=["piezo", "corrected", "extended"],
+)
+def test_inverse_recovers_the_drive_that_made_the_reference(model):
+    path = _path()
+    reference = np.asarray(jh.simulate(model, path))
+    result = jh.compensate(model, np.asarray(path.times), reference, limits=(0.0, 5.0))
+    # The reference came from u1 through the same model: its inverse is u1.
+    np.testing.assert_allclose(result.drive, path.values, atol=1e-9)
+    np.testing.assert_allclose(
+        result.predicted, reference, rtol=0, atol=1e-12 * np.ptp(reference)
+    )
+    # `predicted` is what the model does under the drive.
+    again = jh.simulate(model, jh.InputPath(path.t0, path.dt, result.drive))
+    np.testing.assert_allclose(again, result.predicted, rtol=0, atol=1e-15)
+    assert not np.any(np.asarray(result.at_limit))
+    assert result.tracking()["rms_error_percent_of_stroke"] < 1e-6
+    assert jh.status_name(result.result) == "successful"
+
+
+def test_out_of_reach_references_are_flagged_not_hidden():
+    path = _path()
+    plain = np.asarray(jh.simulate(PAPER, path))  # u1 spans the whole 0-4 V range
+    reference = 1.3 * plain
+    result = jh.compensate(PAPER, np.asarray(path.times), reference, limits=(0.0, 4.0))
+    drive = np.asarray(result.drive)
+    at_limit = np.asarray(result.at_limit)
+    assert at_limit.any() and not at_limit.all()
+    # Flagged samples sit at the upper limit, where the reference climbs above
+    # the stroke 0-4 V gives, and the predicted output falls short of it.
+    assert np.all(drive[at_limit] == 4.0)
+    assert np.all(reference[at_limit] > 0.95 * plain.max())
+    assert np.all(np.asarray(result.predicted)[at_limit] < reference[at_limit])
+    # Elsewhere the reference is tracked.
+    error = np.abs(np.asarray(result.error))
+    assert np.max(error[~at_limit]) < 1e-9 * np.ptp(reference)
+    assert result.tracking()["samples_at_limit"] == int(at_limit.sum())
+
+
+@pytest.mark.parametrize(
+    "model, words",
+    [
+        (
+            jh.PiezoStage.from_piezo(PAPER, natural_frequency=100.0, damping_ratio=0.5),
+            "mass-spring",
+        ),
+        (jh.CorrectedPiezoBoucWen.from_piezo(PAPER, phi=0.01, eps=0.0), "phi = 0.01"),
+    ],
+)
+def test_models_without_a_per_sample_inverse_are_refused(model, words):
+    path = _path(100.0)
+    with pytest.raises(ValueError, match=words):
+        jh.compensate(
+            model, np.asarray(path.times), np.zeros(path.num_samples), limits=(0.0, 5.0)
+        )
+
+
+def test_compensate_bad_inputs():
+    t = np.arange(10) * 0.01
+    r = np.zeros(10)
+    with pytest.raises(ValueError, match="uniformly spaced"):
+        jh.compensate(PAPER, t**2, r, limits=(0.0, 1.0))
+    with pytest.raises(ValueError, match="lower < upper"):
+        jh.compensate(PAPER, t, r, limits=(1.0, 0.0))
+    with pytest.raises(ValueError, match="equal length"):
+        jh.compensate(PAPER, t, r[:5], limits=(0.0, 1.0))
+    with pytest.raises(ValueError, match="iterations"):
+        jh.compensate(PAPER, t, r, limits=(0.0, 1.0), iterations=0)
+    with pytest.raises(TypeError, match="jaxhyst model"):
+        jh.compensate("piezo", t, r, limits=(0.0, 1.0))  # type: ignore[arg-type]
+
+
+def test_compensation_compiles_once_per_length():
+    path = _path(200.0)
+    times = np.asarray(path.times)
+    reference = np.asarray(jh.simulate(PAPER, path))
+    jh.compensate(PAPER, times, reference, limits=(0.0, 5.0))
+    with jax.log_compiles():
+        import logging
+
+        seen = []
+
+        class _Catch(logging.Handler):
+            def emit(self, record):
+                seen.append(record.getMessage())
+
+        handler = _Catch()
+        logging.getLogger("jax").addHandler(handler)
+        try:
+            jh.compensate(
+                PAPER.replace(k1=1.1 * PAPER.k1),
+                times,
+                0.9 * reference,
+                limits=(0.0, 5.0),
+            )
+        finally:
+            logging.getLogger("jax").removeHandler(handler)
+    assert not [m for m in seen if "Compiling" in m and "_invert" in m]
