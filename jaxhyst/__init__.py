@@ -43,6 +43,7 @@ from ._diagnose._results import (
     Unexplained as Unexplained,
     Validation as Validation,
 )
+from ._export_c import export_c as export_c
 from ._identification._identifiability import (
     Identifiability as Identifiability,
     covariance as covariance,
@@ -98,6 +99,11 @@ from ._metrics import (
     mrd as mrd,
     nrmsd as nrmsd,
     rmse as rmse,
+)
+from ._model_files import (
+    LoadedModel as LoadedModel,
+    load_model as load_model,
+    save_model as save_model,
 )
 from ._models.base import (
     AbstractHysteresisModel as AbstractHysteresisModel,

@@ -28,9 +28,13 @@ from ._diagnose._families import (
     PiezoFamily,
     StructuralFamily,
 )
+from ._diagnose._results import Diagnosis
 from ._identification._identify import identify, joint_scales
+from ._metrics import error_metrics
+from ._model_files import EMBEDDED_KEY, LoadedModel, load_model, model_file_dict
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
+from ._models.structural import StructuralBoucWen
 from ._opensees import opensees_json
 from ._params import ParameterSpace
 from ._plots import plot_loop, require_matplotlib
@@ -859,6 +863,8 @@ def _run_fit(args: argparse.Namespace) -> int:
             data.update(opensees_json(fit.model, recordings[0]))
         if stages is not None:
             data["stages"] = stages
+        # The model file (jh.load_model and 'jaxhyst evaluate' read it from here).
+        data[EMBEDDED_KEY] = model_file_dict(fit.model, recording=recordings)
         _write_json(data, json_path, args.force)
     for i, (recording, folder) in enumerate(zip(recordings, folders)):
         written = write_fit_figures(
@@ -986,6 +992,7 @@ def _run_diagnose(args: argparse.Namespace) -> int:
     if json_path is not None:
         data = diagnosis.to_dict()
         data["window"] = _window(args, recording)
+        data[EMBEDDED_KEY] = _diagnosis_model_file(diagnosis, recording)
         _write_json(data, json_path, args.force)
     figures = {}
     if plots is not None:
@@ -1004,6 +1011,147 @@ def _run_diagnose(args: argparse.Namespace) -> int:
             files=extra,
         )
         print(f"wrote {report_path}")
+    return 0
+
+
+def _diagnosis_model_file(
+    diagnosis: Diagnosis, recording: Recording
+) -> dict[str, object]:
+    """The model file of the final (diagnosed) model, embedded in the JSON."""
+    return model_file_dict(
+        diagnosis.final_model,
+        recording=recording,
+        family=diagnosis.family,
+        effects=diagnosis.effects,
+    )
+
+
+# --------------------------------------------------------------------- evaluate
+
+
+def _add_evaluate_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "evaluate",
+        help="simulate a saved model on recordings and report its errors",
+        description=(
+            "Simulate a saved model (a model file from jh.save_model, or the JSON of "
+            "'jaxhyst fit --json' or 'jaxhyst diagnose --json') on each recording's "
+            "input and report the error measures (RMSE, MAD, MRD, MAE, NRMSD) "
+            "against its output: how a model does on tests it was not fitted to. "
+            "The solver is the one 'jaxhyst fit' uses for the model: RK4 with 4 "
+            "substeps for PiezoStage, the structural family's substeps for BoucWen "
+            "and StructuralBoucWen, else one RK4 step per sample."
+        ),
+    )
+    parser.add_argument(
+        "model_file",
+        metavar="MODEL",
+        help="the model: a model file, or fit/diagnose JSON (its model_file block).",
+    )
+    _add_recording_options(parser, several=True)
+    parser.add_argument(
+        "--json",
+        metavar="OUT",
+        default=None,
+        help='write {"recordings": [{"recording": path, "metrics": {rmse, mad, mrd, '
+        "mae, nrmsd}}, ...]} as JSON.",
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the JSON file if it already exists.",
+    )
+    parser.set_defaults(run=_run_evaluate)
+
+
+def _evaluation_solver(model: AbstractHysteresisModel, recording: Recording) -> RK4:
+    """The solver `jaxhyst fit` / `diagnose` simulate this kind of model with."""
+    if isinstance(model, PiezoStage):
+        return RK4(substeps=4)
+    if isinstance(model, (BoucWen, StructuralBoucWen)):
+        return StructuralFamily().solver(recording)
+    return RK4()
+
+
+def _check_units(loaded: LoadedModel, recording: Recording, path: str) -> None:
+    """Refuse a recording whose declared input/output units differ from the
+    model's (where both declare one): the errors would be off by the conversion."""
+    for key in ("input", "output"):
+        ours, theirs = loaded.units[key], getattr(recording, f"{key}_unit")
+        if ours and theirs and ours != theirs:
+            raise ValueError(
+                f"{path}: its {key} is in {theirs}, the model's in {ours}; convert "
+                "the recording to the model's units."
+            )
+
+
+def _load_model_file(path: str) -> LoadedModel:
+    if not Path(path).is_file():
+        what = "is a folder" if Path(path).is_dir() else "does not exist"
+        raise FileNotFoundError(f"MODEL {path!r} {what}; pass a model file.")
+    return load_model(path)
+
+
+def _run_evaluate(args: argparse.Namespace) -> int:
+    json_path = Path(args.json) if args.json is not None else None
+    if json_path is not None:
+        _check_files([("--json", json_path)], args.force)
+    loaded = _load_model_file(args.model_file)
+    model = loaded.model
+    recordings = _load_recordings(args)
+    for path, recording in zip(args.recording, recordings):
+        _check_units(loaded, recording, path)
+
+    results = []
+    for path, recording in zip(args.recording, recordings):
+        solver = _evaluation_solver(model, recording)
+        y = np.asarray(simulate(model, recording.input_path(), solver, throw=False))
+        if not np.all(np.isfinite(y)):
+            raise ValueError(
+                f"the model's output on {path} is not finite (it diverged); check "
+                "that the recording's input is in the model's units and range."
+            )
+        results.append((path, recording, error_metrics(recording.y, y)))
+
+    fitted = ", ".join(
+        f"{r.get('name')} ({r.get('samples')} samples)" for r in loaded.recordings
+    )
+    effects = f" + {', '.join(loaded.effects)}" if loaded.effects else ""
+    print(
+        f"model: {type(model).__name__}{effects} from {args.model_file} (jaxhyst "
+        f"{loaded.jaxhyst_version}" + (f"; fitted to {fitted})" if fitted else ")")
+    )
+    scale, unit = _display_unit(loaded.units["output"] or recordings[0].output_unit)
+    s = f" [{unit}]" if unit else ""
+    width = max(len("recording"), *(len(path) for path in args.recording))
+    print(
+        f"{'recording':<{width}}  {'samples':>8}  {'RMSE' + s:>13}  {'MAD' + s:>13}  "
+        f"{'MRD [%]':>11}  {'MAE' + s:>13}  {'NRMSD':>11}"
+    )
+    for path, recording, m in results:
+        print(
+            f"{path:<{width}}  {recording.num_samples:>8}  "
+            f"{scale * m['rmse']:>13.6g}  {scale * m['mad']:>13.6g}  "
+            f"{m['mrd']:>11.6g}  {scale * m['mae']:>13.6g}  {m['nrmsd']:>11.6g}"
+        )
+        window = _window_line(args, recording)
+        if window is not None:
+            print(f"  {window}")
+    if json_path is not None:
+        data = {
+            "model": {"file": args.model_file, "class": type(model).__name__},
+            "recordings": [
+                {
+                    "recording": path,
+                    "name": recording.name,
+                    "samples": recording.num_samples,
+                    "metrics": metrics,
+                }
+                for path, recording, metrics in results
+            ],
+            "window": _window(args, recordings[0]),
+        }
+        _write_json(data, json_path, args.force)
     return 0
 
 
@@ -1094,8 +1242,11 @@ def _run_demo(args: argparse.Namespace) -> int:
     recording.save(out / "recording.csv", overwrite=args.force)
     fit_data = fit.to_dict()
     fit_data["recording"] = {"name": recording.name, "samples": recording.num_samples}
+    fit_data[EMBEDDED_KEY] = model_file_dict(fit.model, recording=recording)
     write_json(fit_data, out / "fit.json", overwrite=args.force)
-    write_json(diagnosis.to_dict(), out / "diagnosis.json", overwrite=args.force)
+    diagnosis_data = diagnosis.to_dict()
+    diagnosis_data[EMBEDDED_KEY] = _diagnosis_model_file(diagnosis, recording)
+    write_json(diagnosis_data, out / "diagnosis.json", overwrite=args.force)
     figures = {
         **write_fit_figures(
             fit, recording, out / "figures", overwrite=args.force, label="piezo"
@@ -1183,6 +1334,7 @@ def _build_parser() -> _Parser:
     _add_simulate_parser(subparsers)
     _add_fit_parser(subparsers)
     _add_diagnose_parser(subparsers)
+    _add_evaluate_parser(subparsers)
     _add_demo_parser(subparsers)
     return parser
 
