@@ -21,6 +21,7 @@ import jax
 import numpy as np
 
 from ._cache import enable_compilation_cache
+from ._compensate import compensate
 from ._diagnose._diagnose import diagnose
 from ._diagnose._families import (
     EFFECT_NAMES,
@@ -1315,6 +1316,242 @@ def _run_demo(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------- main
 
 
+# ------------------------------------------------------------------- compensate
+
+_COMPENSATION_FIGURES = ("compensation_drive.png", "compensation_error.png")
+
+
+def _add_compensate_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "compensate",
+        help="the drive that makes a saved model follow a reference (feedforward)",
+        description=(
+            "Find the drive u(t) whose simulated output follows a reference y(t): "
+            "a causal per-sample inversion of a saved quasi-static piezo model "
+            "(PiezoBoucWen, CorrectedPiezoBoucWen or a diagnosed ExtendedPiezo "
+            "without a time shift or stage dynamics; models whose output lags the "
+            "drive are refused). Writes DRIVE.csv with columns t,u,y_predicted on "
+            "the reference's time grid. Samples the model cannot reach inside "
+            "--limits are reported, never silently clipped."
+        ),
+    )
+    parser.add_argument(
+        "model_file",
+        metavar="MODEL",
+        help="the model: a model file, or fit/diagnose JSON (its model_file block).",
+    )
+    parser.add_argument(
+        "reference",
+        metavar="REFERENCE",
+        help="the reference: .csv/.txt with a header and columns t,y (in the units "
+        "of the recording the model was fitted on), or .npz/.mat.",
+    )
+    group = parser.add_argument_group("columns of the reference")
+    group.add_argument(
+        "--time",
+        default=None,
+        metavar="COLUMN",
+        help="the time column (default: t; with --no-header: 0).",
+    )
+    group.add_argument(
+        "--output",
+        default=None,
+        metavar="COLUMN",
+        help="the reference column (default: y; with --no-header: 1).",
+    )
+    group.add_argument(
+        "--no-header",
+        action="store_true",
+        help="the text file has no header row (columns by index).",
+    )
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DRIVE",
+        help="write the drive here (.csv: t,u,y_predicted).",
+    )
+    parser.add_argument(
+        "--limits",
+        default=None,
+        metavar="LO,HI",
+        help="the drive's range, e.g. 0,150 for a 0-150 V amplifier (default: the "
+        "input range of the recordings the model was fitted on, as the model file "
+        "records it: beyond it the model extrapolates).",
+    )
+    parser.add_argument(
+        "--report",
+        default=None,
+        metavar="PATH",
+        help="write a Markdown report (tracking error, figures "
+        "next to it: " + ", ".join(_COMPENSATION_FIGURES) + ").",
+    )
+    parser.add_argument(
+        "--force", action="store_true", help="replace existing outputs."
+    )
+    parser.set_defaults(run=_run_compensate)
+
+
+def _limits(args: argparse.Namespace, loaded: LoadedModel) -> tuple[float, float]:
+    if args.limits is not None:
+        parts = args.limits.split(",")
+        try:
+            lo, hi = (float(p) for p in parts)
+        except ValueError:
+            raise ValueError(
+                f"--limits {args.limits!r}: give two numbers LO,HI, e.g. --limits 0,150."
+            ) from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ValueError(
+                f"--limits {args.limits!r}: need finite LO < HI, e.g. --limits 0,150."
+            )
+        return lo, hi
+    ranges = [r.get("input_range") for r in loaded.recordings]
+    if not ranges or any(r is None for r in ranges):
+        raise ValueError(
+            f"{args.model_file} does not record the input range it was fitted on; "
+            "pass the drive's range with --limits LO,HI (e.g. --limits 0,150)."
+        )
+    return min(r[0] for r in ranges), max(r[1] for r in ranges)
+
+
+def _read_reference(args: argparse.Namespace) -> Recording:
+    header = not args.no_header
+    column = _column(args.output, "y", 1, header, "output")
+    return Recording.load(
+        args.reference,
+        time=_column(args.time, "t", 0, header, "time"),
+        input=column,
+        output=column,
+        header=header,
+    )
+
+
+def _run_compensate(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    report = Path(args.report) if args.report is not None else None
+    outputs = [("--out", out)]
+    if report is not None:
+        outputs.append(("--report", report))
+        outputs += [
+            ("--report", report.parent / name) for name in _COMPENSATION_FIGURES
+        ]
+    _check_files(outputs, args.force)
+    if report is not None:
+        require_matplotlib()
+    loaded = _load_model_file(args.model_file)
+    reference = _read_reference(args)
+    limits = _limits(args, loaded)
+    result = compensate(
+        loaded.model, reference.t, reference.y, limits=limits, throw=False
+    )
+    if result.result == RESULTS.nonfinite:
+        raise ValueError(
+            "the model diverged while following the reference; check that the "
+            "reference is in the model's output units and inside its stroke."
+        )
+    tracking = result.tracking()
+    scale, unit = _display_unit(loaded.units["output"] or reference.output_unit)
+    s = f" {unit}" if unit else ""
+    print(
+        f"model: {type(loaded.model).__name__} from {args.model_file}; reference "
+        f"{reference.name}: {reference.num_samples} samples at "
+        f"{reference.sample_rate:g} Hz; drive limits {limits[0]:g} to {limits[1]:g}"
+    )
+    print(
+        f"predicted tracking error: RMS {scale * tracking['rms_error']:.4g}{s} "
+        f"({tracking['rms_error_percent_of_stroke']:.3g} % of the stroke), max "
+        f"{scale * tracking['max_error']:.4g}{s} "
+        f"({tracking['max_error_percent_of_stroke']:.3g} %)"
+    )
+    if tracking["samples_at_limit"]:
+        _warn(
+            f"{tracking['samples_at_limit']} of {reference.num_samples} samples need "
+            f"a drive outside {limits[0]:g} to {limits[1]:g}: the model cannot reach "
+            "the reference there (the drive is held at the limit); widen --limits "
+            "if the amplifier allows."
+        )
+    _prepare_parent(out)
+    table = np.stack(
+        [
+            np.asarray(result.times),
+            np.asarray(result.drive),
+            np.asarray(result.predicted),
+        ],
+        axis=1,
+    )
+    np.savetxt(
+        out, table, delimiter=",", header="t,u,y_predicted", comments="", fmt="%.17g"
+    )
+    written = [out]
+    if report is not None:
+        written += _write_compensation_report(
+            report, args, loaded, reference, result, limits, scale, unit
+        )
+    _print_written(written)
+    return 0
+
+
+def _write_compensation_report(
+    report, args, loaded, reference, result, limits, scale, unit
+) -> list[Path]:
+    from ._plots import plot_error_trend, plot_time_history
+
+    _prepare_parent(report)
+    folder = report.parent
+    t = np.asarray(result.times)
+    label = f"output [{unit}]" if unit else "output"
+    drive = plot_time_history(
+        folder / _COMPENSATION_FIGURES[0],
+        t,
+        np.asarray(result.drive),
+        {"reference": reference.y, "predicted": np.asarray(result.predicted)},
+        ulabel="drive u",
+        ylabel=label,
+        scale=scale,
+        overwrite=args.force,
+        title="Compensation: drive (top), reference and predicted output",
+    )
+    error = plot_error_trend(
+        folder / _COMPENSATION_FIGURES[1],
+        t,
+        {"|predicted - reference|": np.abs(np.asarray(result.error))},
+        ylabel=f"absolute error [{unit}]" if unit else "absolute error",
+        scale=scale,
+        overwrite=args.force,
+        title="Predicted tracking error",
+    )
+    tracking = result.tracking()
+    s = f" {unit}" if unit else ""
+    lines = [
+        "# Compensation",
+        "",
+        f"Model `{type(loaded.model).__name__}` from `{args.model_file}`; reference "
+        f"`{args.reference}` ({reference.num_samples} samples at "
+        f"{reference.sample_rate:g} Hz); drive limits {limits[0]:g} to {limits[1]:g}.",
+        "",
+        "Method: causal per-sample inversion (at every sample, the drive in the "
+        "limits whose one-sample simulation meets the reference, by bisection). The "
+        "errors are the model's prediction: the stage tracks as well as the model "
+        "describes it.",
+        "",
+        "| predicted tracking error | value | % of stroke |",
+        "|---|---|---|",
+        f"| RMS | {scale * tracking['rms_error']:.4g}{s} | "
+        f"{tracking['rms_error_percent_of_stroke']:.3g} |",
+        f"| maximum | {scale * tracking['max_error']:.4g}{s} | "
+        f"{tracking['max_error_percent_of_stroke']:.3g} |",
+        "",
+        f"Samples out of reach inside the limits: {tracking['samples_at_limit']}.",
+        "",
+        f"![drive and output]({drive.name})",
+        "",
+        f"![tracking error]({error.name})",
+        "",
+    ]
+    report.write_text("\n".join(lines))
+    return [report, drive, error]
+
+
 def _build_parser() -> _Parser:
     from . import __version__
 
@@ -1335,6 +1572,7 @@ def _build_parser() -> _Parser:
     _add_fit_parser(subparsers)
     _add_diagnose_parser(subparsers)
     _add_evaluate_parser(subparsers)
+    _add_compensate_parser(subparsers)
     _add_demo_parser(subparsers)
     return parser
 

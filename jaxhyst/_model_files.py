@@ -15,7 +15,8 @@ The format (`format_version` 1), one JSON object:
       "family": "piezo" | "structural" | null,  the diagnosis family, if any
       "effects": ["creep", ...],                the effects a diagnosis adopted
       "units": {"input": "V", "output": "m", "time": "s"},   "" where unknown
-      "recordings": [{"name": ..., "samples": ..., "sample_rate_hz": ...}],
+      "recordings": [{"name": ..., "samples": ..., "sample_rate_hz": ...,
+                      "input_range": [min u, max u]}],
       "checksum": "sha256:<hex>"
     }
 
@@ -85,8 +86,8 @@ _UNIT_KEYS = ("input", "output", "time")
 class LoadedModel(eqx.Module):
     """What `load_model` returns: the `model`, ready to `simulate`, and what the
     file says about it: the `units` of its input, output and time ("" where
-    unknown), the `recordings` it was fitted to (name, samples, sample_rate_hz;
-    empty if not recorded), the diagnosis `family` and adopted `effects` (None and
+    unknown), the `recordings` it was fitted to (name, samples, sample_rate_hz,
+    input_range; empty if not recorded), the diagnosis `family` and adopted `effects` (None and
     () for a plain fit), and the `jaxhyst_version` that wrote it."""
 
     model: AbstractHysteresisModel
@@ -225,6 +226,7 @@ def model_file_dict(
                 "name": r.name,
                 "samples": r.num_samples,
                 "sample_rate_hz": float(r.sample_rate),
+                "input_range": [float(np.min(r.u)), float(np.max(r.u))],
             }
             for r in recordings
         ],

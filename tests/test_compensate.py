@@ -120,3 +120,55 @@ def test_compensation_compiles_once_per_length():
         finally:
             logging.getLogger("jax").removeHandler(handler)
     assert not [m for m in seen if "Compiling" in m and "_invert" in m]
+
+
+def _model_and_reference(folder):
+    path = jh.sample(jh.paper_u1(), 200.0)
+    y = np.asarray(jh.simulate(PAPER, path))
+    recording = jh.Recording(
+        np.asarray(path.times),
+        np.asarray(path.values),
+        y,
+        name="train",
+        input_unit="V",
+        output_unit="m",
+    )
+    jh.save_model(PAPER, folder / "model.json", recording=recording)
+    t = np.arange(0, 5, 0.005)
+    reference = 0.45 * y.max() * (1 - np.cos(2 * np.pi * 0.4 * t))
+    np.savetxt(
+        folder / "ref.csv",
+        np.stack([t, reference], 1),
+        delimiter=",",
+        header="t,y",
+        comments="",
+    )
+    return t, reference
+
+
+def test_compensate_command_writes_the_drive_and_report(tmp_path, capsys):
+    from jaxhyst._cli import main
+
+    t, reference = _model_and_reference(tmp_path)
+    out, report = tmp_path / "drive.csv", tmp_path / "rep" / "report.md"
+    argv = ["compensate", str(tmp_path / "model.json"), str(tmp_path / "ref.csv")]
+    assert main([*argv, "--out", str(out), "--report", str(report)]) == 0
+    stdout = capsys.readouterr().out
+    # Default limits: the training record's input range, 0-4 V.
+    assert "drive limits 0 to 4" in stdout
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert out.read_text().splitlines()[0] == "t,u,y_predicted"
+    np.testing.assert_allclose(table[:, 0], t)
+    direct = jh.compensate(PAPER, t, reference, limits=(0.0, 4.0))
+    np.testing.assert_allclose(table[:, 1], direct.drive, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(table[:, 2], direct.predicted, rtol=0, atol=1e-20)
+    text = report.read_text()
+    assert "| RMS |" in text and "compensation_drive.png" in text
+    assert (report.parent / "compensation_error.png").exists()
+    # Outputs are not replaced without --force; a reference beyond the limits warns.
+    assert main([*argv, "--out", str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert main([*argv, "--out", str(tmp_path / "d2.csv"), "--limits", "0,2"]) == 0
+    assert "need a drive outside 0 to 2" in capsys.readouterr().err
+    assert main([*argv, "--out", str(tmp_path / "d3.csv"), "--limits", "2"]) == 2
+    assert "LO,HI" in capsys.readouterr().err
