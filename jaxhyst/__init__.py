@@ -3,7 +3,13 @@
 import importlib.metadata
 
 from ._cache import enable_compilation_cache as enable_compilation_cache
-from ._compensate import Compensation as Compensation, compensate as compensate
+from ._compensate import (
+    AbstractCompensationMethod as AbstractCompensationMethod,
+    Compensation as Compensation,
+    OptimisedDrive as OptimisedDrive,
+    PerSampleInversion as PerSampleInversion,
+    compensate as compensate,
+)
 from ._datasets import (
     STRUCTURAL_TESTS as STRUCTURAL_TESTS,
     BoucWenBenchmark as BoucWenBenchmark,

@@ -1326,12 +1326,13 @@ def _add_compensate_parser(subparsers) -> None:
         "compensate",
         help="the drive that makes a saved model follow a reference (feedforward)",
         description=(
-            "Find the drive u(t) whose simulated output follows a reference y(t): "
-            "a causal per-sample inversion of a saved quasi-static piezo model "
-            "(PiezoBoucWen, CorrectedPiezoBoucWen or a diagnosed ExtendedPiezo "
-            "without a time shift or stage dynamics; models whose output lags the "
-            "drive are refused). Writes DRIVE.csv with columns t,u,y_predicted on "
-            "the reference's time grid. Samples the model cannot reach inside "
+            "Find the drive u(t) whose simulated output follows a reference y(t) "
+            "for a saved piezo model: a causal per-sample inversion where the "
+            "model allows it (PiezoBoucWen, CorrectedPiezoBoucWen, a diagnosed "
+            "ExtendedPiezo), else, for models whose output lags the drive (stage "
+            "dynamics, a time shift), the whole drive optimised through the "
+            "simulator ahead of time. Writes DRIVE.csv with columns t,u,y_predicted "
+            "on the reference's time grid. Samples the model cannot reach inside "
             "--limits are reported, never silently clipped."
         ),
     )
@@ -1442,7 +1443,12 @@ def _run_compensate(args: argparse.Namespace) -> int:
     reference = _read_reference(args)
     limits = _limits(args, loaded)
     result = compensate(
-        loaded.model, reference.t, reference.y, limits=limits, throw=False
+        loaded.model,
+        reference.t,
+        reference.y,
+        limits=limits,
+        solver=_evaluation_solver(loaded.model, reference),
+        throw=False,
     )
     if result.result == RESULTS.nonfinite:
         raise ValueError(
@@ -1455,7 +1461,8 @@ def _run_compensate(args: argparse.Namespace) -> int:
     print(
         f"model: {type(loaded.model).__name__} from {args.model_file}; reference "
         f"{reference.name}: {reference.num_samples} samples at "
-        f"{reference.sample_rate:g} Hz; drive limits {limits[0]:g} to {limits[1]:g}"
+        f"{reference.sample_rate:g} Hz; drive limits {limits[0]:g} to {limits[1]:g}; "
+        f"method: {result.method}"
     )
     print(
         f"predicted tracking error: RMS {scale * tracking['rms_error']:.4g}{s} "
@@ -1529,10 +1536,16 @@ def _write_compensation_report(
         f"`{args.reference}` ({reference.num_samples} samples at "
         f"{reference.sample_rate:g} Hz); drive limits {limits[0]:g} to {limits[1]:g}.",
         "",
-        "Method: causal per-sample inversion (at every sample, the drive in the "
-        "limits whose one-sample simulation meets the reference, by bisection). The "
-        "errors are the model's prediction: the stage tracks as well as the model "
-        "describes it.",
+        f"Method: {result.method} ("
+        + (
+            "at every sample, the drive in the limits whose one-sample simulation "
+            "meets the reference, by bisection"
+            if result.method == "per-sample inversion"
+            else "the whole drive optimised through the simulator, from the inverse "
+            "of the model's quasi-static part"
+        )
+        + "). The errors are the model's prediction: the stage tracks as well as "
+        "the model describes it.",
         "",
         "| predicted tracking error | value | % of stroke |",
         "|---|---|---|",

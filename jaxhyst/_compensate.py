@@ -10,20 +10,28 @@ derivative through the sign switch at a reversal, and causal, so it runs sample 
 sample as a real-time feedforward would. A reference the model cannot reach inside
 the range gets the limit's drive, and those samples are reported.
 
-Models whose output lags the drive (stage dynamics, a drive read ahead in time)
-have no per-sample inverse: their output at a sample barely depends on that
-sample's drive. `compensate` refuses them rather than return an unstable drive.
+Models whose output lags the drive (stage dynamics, a drive shifted in time) have
+no per-sample inverse: their output at a sample barely depends on that sample's
+drive. For them the whole drive is optimised ahead of time through the
+differentiable simulator (`OptimisedDrive`: L-BFGS on the mean squared tracking
+error, the drive kept inside the limits by a tanh map), starting from the
+per-sample inverse of the model's quasi-static part shifted by its time shift.
 """
+
+import abc
+import dataclasses
+from typing import ClassVar
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from ._inputs import InputPath
 from ._models.base import AbstractHysteresisModel
-from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoStage
+from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from ._models.extended import ExtendedPiezo
 from ._simulate import RK4, AbstractSimulationSolver, simulate
 from ._status import RESULTS, raise_unless_successful
@@ -39,6 +47,7 @@ class Compensation(eqx.Module):
     - `at_limit`: samples whose reference the model cannot reach inside `limits`
       (their drive is the nearer limit).
     - `result`: `successful`, or `nonfinite` when the model diverged.
+    - `method`: "per-sample inversion" or "optimised drive".
     """
 
     times: Float[Array, " n"]
@@ -48,6 +57,7 @@ class Compensation(eqx.Module):
     at_limit: Bool[Array, " n"]
     limits: tuple[float, float]
     result: RESULTS
+    method: str = "per-sample inversion"
 
     @property
     def error(self) -> Float[Array, " n"]:
@@ -154,37 +164,177 @@ def _invert(model, solver, t0, dt, reference, lo, hi, iterations):
     )
 
 
+def _quasi_static(model: AbstractHysteresisModel) -> AbstractHysteresisModel:
+    """The model without what makes its output lag the drive (stage dynamics, the
+    time shift): what the per-sample inversion can invert."""
+    if isinstance(model, PiezoStage):
+        values = {n: getattr(model, n) for n in PiezoBoucWen.parameter_names}
+        return PiezoBoucWen(**values, smoothing=model.smoothing)
+    if isinstance(model, CorrectedPiezoBoucWen | ExtendedPiezo):
+        model = model.replace(phi=0.0)
+    if isinstance(model, ExtendedPiezo) and model.dynamic:
+        model = dataclasses.replace(model, dynamic=False)
+    return model
+
+
+def _time_shift(model: AbstractHysteresisModel) -> float:
+    if isinstance(model, CorrectedPiezoBoucWen | ExtendedPiezo):
+        return float(model.phi)
+    return 0.0
+
+
+class AbstractCompensationMethod(eqx.Module):
+    """How `compensate` finds the drive."""
+
+    name: eqx.AbstractClassVar[str]
+
+    @abc.abstractmethod
+    def drive(
+        self, model, solver, times: np.ndarray, reference: Array, lo: float, hi: float
+    ) -> tuple[Array, Array, Array]:
+        """(drive, predicted output, at_limit) for the reference."""
+
+
+class PerSampleInversion(AbstractCompensationMethod):
+    """Causal: at every sample, the drive whose one-sample simulation meets the
+    reference, by `iterations` bisection halvings of the drive range (52 reach
+    float64 resolution). For models without a lag (see the module docstring)."""
+
+    iterations: int = 52
+    name: ClassVar[str] = "per-sample inversion"
+
+    def __check_init__(self):
+        k = self.iterations
+        if not isinstance(k, int) or isinstance(k, bool) or k < 1:
+            raise ValueError(
+                f"PerSampleInversion(iterations={k!r}): must be an integer >= 1."
+            )
+
+    def drive(self, model, solver, times, reference, lo, hi):
+        why = _lags(model)
+        if why is not None:
+            raise ValueError(
+                f"compensate: {why}, so the drive cannot be found sample by sample; "
+                "use method=OptimisedDrive() (the default for such models)."
+            )
+        dtype = reference.dtype
+        dt = float(np.mean(np.diff(times)))
+        return _invert(
+            model,
+            solver,
+            jnp.asarray(times[0], dtype),
+            jnp.asarray(dt, dtype),
+            reference,
+            jnp.asarray(lo, dtype),
+            jnp.asarray(hi, dtype),
+            self.iterations,
+        )
+
+
+class OptimisedDrive(AbstractCompensationMethod):
+    """Ahead of time: the whole drive minimising the mean squared tracking error
+    through the differentiable simulator, by `steps` L-BFGS steps, the drive kept
+    strictly inside the limits (u = mid + half*tanh(v)). Starts from the per-sample
+    inverse of the model's quasi-static part, shifted by the model's time shift.
+    Raise `steps` when the tracking error is still falling."""
+
+    steps: int = 300
+    start: PerSampleInversion = PerSampleInversion()
+    name: ClassVar[str] = "optimised drive"
+
+    def __check_init__(self):
+        k = self.steps
+        if not isinstance(k, int) or isinstance(k, bool) or k < 1:
+            raise ValueError(f"OptimisedDrive(steps={k!r}): must be an integer >= 1.")
+
+    def drive(self, model, solver, times, reference, lo, hi):
+        static = _quasi_static(model)
+        u0, _, _ = self.start.drive(static, solver, times, reference, lo, hi)
+        shift = _time_shift(model)
+        if shift:
+            # V(t) = u(t + phi) should be the static inverse: u(t) = V(t - phi).
+            u0 = jnp.asarray(np.interp(times - shift, times, np.asarray(u0)))
+        dtype = reference.dtype
+        dt = float(np.mean(np.diff(times)))
+        drive, predicted = _optimise(
+            model,
+            solver,
+            jnp.asarray(times[0], dtype),
+            jnp.asarray(dt, dtype),
+            reference,
+            jnp.asarray(u0, dtype),
+            jnp.asarray(lo, dtype),
+            jnp.asarray(hi, dtype),
+            self.steps,
+        )
+        margin = 1e-6 * (hi - lo)
+        at_limit = (drive <= lo + margin) | (drive >= hi - margin)
+        return drive, predicted, at_limit
+
+
+@eqx.filter_jit
+def _optimise(model, solver, t0, dt, reference, u0, lo, hi, steps):
+    mid, half = (hi + lo) / 2, (hi - lo) / 2
+    inside = jnp.clip((u0 - mid) / half, -1 + 1e-9, 1 - 1e-9)
+    scale = jnp.maximum(jnp.max(jnp.abs(reference)), 1e-300)
+
+    def drive_of(v):
+        return mid + half * jnp.tanh(v)
+
+    def loss(v):
+        y = simulate(model, InputPath(t0, dt, drive_of(v)), solver, throw=False)
+        return jnp.mean(((y - reference) / scale) ** 2)
+
+    optimiser = optax.lbfgs()
+    value_and_grad = optax.value_and_grad_from_state(loss)
+
+    def step(carry, _):
+        v, state = carry
+        value, grad = value_and_grad(v, state=state)
+        updates, state = optimiser.update(
+            grad, state, v, value=value, grad=grad, value_fn=loss
+        )
+        return (optax.apply_updates(v, updates), state), None
+
+    v0 = jnp.arctanh(inside)
+    (v, _), _ = jax.lax.scan(step, (v0, optimiser.init(v0)), None, length=steps)
+    drive = drive_of(v)
+    predicted = simulate(model, InputPath(t0, dt, drive), solver, throw=False)
+    return drive, predicted
+
+
 def compensate(
     model: AbstractHysteresisModel,
     times: Float[ArrayLike, " n"],
     reference: Float[ArrayLike, " n"],
     *,
     limits: tuple[float, float],
+    method: AbstractCompensationMethod | None = None,
     solver: AbstractSimulationSolver = RK4(),
-    iterations: int = 52,
     throw: bool = True,
 ) -> Compensation:
     """The drive u(t) within `limits` (the amplifier's range, e.g. (0.0, 150.0) V)
-    whose simulated output follows `reference` at the uniformly spaced `times`, by
-    causal per-sample inversion (see the module docstring). `iterations` bisection
-    halvings of the drive range per sample (52 reach float64 resolution; fewer for
-    speed). Samples whose reference lies outside what the model reaches inside
-    `limits` are flagged in `at_limit`, never silently clipped. The model starts at
-    rest at the first sample's drive.
+    whose simulated output follows `reference` at the uniformly spaced `times`.
 
-    Raises `ValueError` for models with no per-sample inverse (stage dynamics, a
-    drive read ahead in time); `throw=True` raises when the model diverged.
+    `method`: `PerSampleInversion()` (causal, exact for the model; the default for
+    models without a lag) or `OptimisedDrive()` (the whole drive optimised ahead of
+    time; the default for models whose output lags the drive: stage dynamics, a
+    time shift). `Compensation.method` says which ran. Samples the model cannot
+    reach inside `limits` are flagged in `at_limit`, never silently clipped. The
+    model starts at rest at the first sample's drive; pass the `solver` the model
+    was fitted with (e.g. `RK4(substeps=4)` for `PiezoStage`). `throw=True` raises
+    when the model diverged.
     """
     if not isinstance(model, AbstractHysteresisModel):
         raise TypeError(
             f"compensate: model must be a jaxhyst model, got {type(model).__name__}."
         )
-    why = _lags(model)
-    if why is not None:
-        raise ValueError(
-            f"compensate: {why}, so the drive cannot be found sample by sample; "
-            "compensate the quasi-static part (e.g. its PiezoBoucWen or the model "
-            "with phi = 0)."
+    if method is None:
+        method = PerSampleInversion() if _lags(model) is None else OptimisedDrive()
+    if not isinstance(method, AbstractCompensationMethod):
+        raise TypeError(
+            "compensate: method must be PerSampleInversion() or OptimisedDrive(), "
+            f"got {type(method).__name__}."
         )
     t = np.asarray(times, dtype=float)
     r = np.asarray(reference, dtype=float)
@@ -207,30 +357,19 @@ def compensate(
         raise ValueError(
             f"compensate: limits must be finite with lower < upper, got {limits}."
         )
-    if (
-        not isinstance(iterations, int)
-        or isinstance(iterations, bool)
-        or iterations < 1
-    ):
-        raise ValueError(
-            f"compensate: iterations must be an integer >= 1, got {iterations!r}."
-        )
     r_array = jnp.asarray(r)
-    dtype = r_array.dtype
-    drive, predicted, at_limit = _invert(
-        model,
-        solver,
-        jnp.asarray(t[0], dtype),
-        jnp.asarray(dt, dtype),
-        r_array,
-        jnp.asarray(lo, dtype),
-        jnp.asarray(hi, dtype),
-        iterations,
-    )
+    drive, predicted, at_limit = method.drive(model, solver, t, r_array, lo, hi)
     finite = bool(np.all(np.isfinite(np.asarray(predicted))))
     result = RESULTS.successful if finite else RESULTS.nonfinite
     out = Compensation(
-        jnp.asarray(t, dtype), r_array, drive, predicted, at_limit, (lo, hi), result
+        jnp.asarray(t, r_array.dtype),
+        r_array,
+        drive,
+        predicted,
+        at_limit,
+        (lo, hi),
+        result,
+        method.name,
     )
     if throw:
         raise_unless_successful(result, "compensate")
