@@ -1407,12 +1407,13 @@ def _limits(args: argparse.Namespace, loaded: LoadedModel) -> tuple[float, float
             )
         return lo, hi
     ranges = [r.get("input_range") for r in loaded.recordings]
-    if not ranges or any(r is None for r in ranges):
+    known = [(float(r[0]), float(r[1])) for r in ranges if r is not None]
+    if not known or len(known) < len(ranges):
         raise ValueError(
             f"{args.model_file} does not record the input range it was fitted on; "
             "pass the drive's range with --limits LO,HI (e.g. --limits 0,150)."
         )
-    return min(r[0] for r in ranges), max(r[1] for r in ranges)
+    return min(lo for lo, _ in known), max(hi for _, hi in known)
 
 
 def _read_reference(args: argparse.Namespace) -> Recording:
