@@ -217,3 +217,15 @@ def test_compensate_command_writes_the_drive_and_report(tmp_path, capsys):
     assert "need a drive outside 0 to 2" in capsys.readouterr().err
     assert main([*argv, "--out", str(tmp_path / "d3.csv"), "--limits", "2"]) == 2
     assert "LO,HI" in capsys.readouterr().err
+
+
+def test_compensate_command_needs_limits_without_a_training_range(tmp_path, capsys):
+    from jaxhyst._cli import main
+
+    _model_and_reference(tmp_path)
+    jh.save_model(PAPER, tmp_path / "bare.json")  # no recording: no input range
+    argv = ["compensate", str(tmp_path / "bare.json"), str(tmp_path / "ref.csv")]
+    assert main([*argv, "--out", str(tmp_path / "d.csv")]) == 2
+    assert "--limits LO,HI" in capsys.readouterr().err
+    assert not (tmp_path / "d.csv").exists()
+    assert main([*argv, "--out", str(tmp_path / "d.csv"), "--limits", "0,4"]) == 0
