@@ -183,6 +183,14 @@ def _time_shift(model: AbstractHysteresisModel) -> float:
     return 0.0
 
 
+def _grid(times: np.ndarray, reference: Array, lo: float, hi: float):
+    """(t0, dt, lo, hi) as arrays of the reference's dtype (traced, so new values
+    do not recompile)."""
+    dtype = reference.dtype
+    dt = float(np.mean(np.diff(times)))
+    return tuple(jnp.asarray(v, dtype) for v in (times[0], dt, lo, hi))
+
+
 class AbstractCompensationMethod(eqx.Module):
     """How `compensate` finds the drive."""
 
@@ -217,18 +225,8 @@ class PerSampleInversion(AbstractCompensationMethod):
                 f"compensate: {why}, so the drive cannot be found sample by sample; "
                 "use method=OptimisedDrive() (the default for such models)."
             )
-        dtype = reference.dtype
-        dt = float(np.mean(np.diff(times)))
-        return _invert(
-            model,
-            solver,
-            jnp.asarray(times[0], dtype),
-            jnp.asarray(dt, dtype),
-            reference,
-            jnp.asarray(lo, dtype),
-            jnp.asarray(hi, dtype),
-            self.iterations,
-        )
+        t0, dt, low, high = _grid(times, reference, lo, hi)
+        return _invert(model, solver, t0, dt, reference, low, high, self.iterations)
 
 
 class OptimisedDrive(AbstractCompensationMethod):
@@ -254,18 +252,10 @@ class OptimisedDrive(AbstractCompensationMethod):
         if shift:
             # V(t) = u(t + phi) should be the static inverse: u(t) = V(t - phi).
             u0 = jnp.asarray(np.interp(times - shift, times, np.asarray(u0)))
-        dtype = reference.dtype
-        dt = float(np.mean(np.diff(times)))
+        t0, dt, low, high = _grid(times, reference, lo, hi)
+        start = jnp.asarray(u0, reference.dtype)
         drive, predicted = _optimise(
-            model,
-            solver,
-            jnp.asarray(times[0], dtype),
-            jnp.asarray(dt, dtype),
-            reference,
-            jnp.asarray(u0, dtype),
-            jnp.asarray(lo, dtype),
-            jnp.asarray(hi, dtype),
-            self.steps,
+            model, solver, t0, dt, reference, start, low, high, self.steps
         )
         margin = 1e-6 * (hi - lo)
         at_limit = (drive <= lo + margin) | (drive >= hi - margin)
