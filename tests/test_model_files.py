@@ -137,8 +137,14 @@ def test_round_trip_is_exact(name, tmp_path):
     assert np.all(np.isfinite(y))
     np.testing.assert_array_equal(again, y)
     assert loaded.units == {"input": "V", "output": "", "time": "s"}
+    u = np.asarray(path.values)
     assert loaded.recordings == (
-        {"name": "r", "samples": y.size, "sample_rate_hz": 500.0},
+        {
+            "name": "r",
+            "samples": y.size,
+            "sample_rate_hz": 500.0,
+            "input_range": [float(u.min()), float(u.max())],
+        },
     )
     assert loaded.family is None and loaded.effects == ()
     assert loaded.jaxhyst_version == jh.__version__
