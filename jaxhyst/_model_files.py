@@ -473,7 +473,7 @@ def _model(block: Any, owner: str) -> AbstractHysteresisModel:
     try:
         return cls(**values)
     except (TypeError, ValueError) as error:
-        raise ValueError(f"{owner}: cannot build {name}: {error}") from None
+        raise ValueError(f"{owner}: cannot build {name}: {error}") from error
 
 
 def _smoothing(block: Any, owner: str) -> AbstractSmoothing:
@@ -493,4 +493,4 @@ def _smoothing(block: Any, owner: str) -> AbstractSmoothing:
     try:
         return cls(**{k: float(v) for k, v in given.items()})
     except (TypeError, ValueError) as error:
-        raise ValueError(f"{owner}: cannot build {rule}: {error}") from None
+        raise ValueError(f"{owner}: cannot build {rule}: {error}") from error
