@@ -69,34 +69,7 @@ def references(y_lo: float, y_hi: float) -> dict[str, tuple[np.ndarray, np.ndarr
 
 
 def corrected_fit(recording, key):
-    first = jh.identify(
-        jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
-        recording,
-        key=jax.random.fold_in(key, 0),
-        analyse=False,
-        throw=False,
-    )
-    template = jh.CorrectedPiezoBoucWen.from_piezo(first.model)
-    box = template.default_bounds(jh.DataScales.of(recording))
-    space = jh.ParameterSpace(template, {n: box.bounds[n] for n in ("phi", "eps")})
-    second = jh.identify(
-        template,
-        recording,
-        key=jax.random.fold_in(key, 1),
-        space=space,
-        start=template,
-        analyse=False,
-        throw=False,
-    )
-    return jh.identify(
-        template,
-        recording,
-        key=jax.random.fold_in(key, 2),
-        swarm=None,
-        start=second.model,
-        analyse=False,
-        throw=False,
-    ).model
+    return jh.identify_corrected(recording, key=key)[0].model
 
 
 def tracking(y, reference, stroke):
@@ -169,7 +142,7 @@ def run_case(effects, seed):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument(
         "--effects",
         nargs="+",

@@ -53,6 +53,9 @@ def record(frequency: float, *, seed: int, periods: int = 3, noise: float = 0.00
 
 
 def summarise(fit: jh.Fit) -> dict:
+    stage = fit.model
+    if not isinstance(stage, jh.PiezoStage):
+        raise TypeError(f"joint_fit: expected a PiezoStage fit, got {type(stage)}.")
     report = fit.identifiability
     assert report is not None
     errors = report.standard_errors
@@ -67,8 +70,8 @@ def summarise(fit: jh.Fit) -> dict:
         "correlation_fn_zeta": float(report.correlations[i, j]),
         "rmse": fit.metrics["rmse"],
         "per_recording": [m.to_dict() for m in fit.per_recording],
-        "natural_frequency": float(fit.model.natural_frequency),
-        "damping_ratio": float(fit.model.damping_ratio),
+        "natural_frequency": float(stage.natural_frequency),
+        "damping_ratio": float(stage.damping_ratio),
         "relative_standard_error": relative,
         "smallest_relative_singular_value": float(report.singular_values[-1]),
         "seconds": fit.timing["total_s"],
@@ -76,7 +79,7 @@ def summarise(fit: jh.Fit) -> dict:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--json", default=None)
     parser.add_argument("--data-seed", type=int, default=0)
     parser.add_argument(

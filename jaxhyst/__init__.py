@@ -50,6 +50,10 @@ from ._diagnose._results import (
     Validation as Validation,
 )
 from ._export_c import export_c as export_c
+from ._identification._corrected import (
+    CORRECTED_STAGES as CORRECTED_STAGES,
+    identify_corrected as identify_corrected,
+)
 from ._identification._identifiability import (
     Identifiability as Identifiability,
     covariance as covariance,

@@ -15,7 +15,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NamedTuple, NoReturn, cast
+from typing import NamedTuple, NoReturn
 
 import jax
 import numpy as np
@@ -30,14 +30,14 @@ from ._diagnose._families import (
     StructuralFamily,
 )
 from ._diagnose._results import Diagnosis
-from ._identification._identify import identify, joint_scales
+from ._identification._corrected import CORRECTED_STAGES, identify_corrected
+from ._identification._identify import identify
 from ._metrics import error_metrics
 from ._model_files import EMBEDDED_KEY, LoadedModel, load_model, model_file_dict
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from ._models.structural import StructuralBoucWen
 from ._opensees import opensees_json
-from ._params import ParameterSpace
 from ._plots import plot_loop, require_matplotlib
 from ._recording import Recording, RecordingError
 from ._report import (
@@ -720,42 +720,9 @@ def _fit_template(name: str):
 
 
 def _identify_corrected(recordings: list[Recording], key, swarm: MPSO):
-    """The paper's two stages plus a joint polish: the plain piezo model; then
-    (phi, eps) by the swarm with the rest fixed; then all eight from there."""
-    first = identify(
-        _fit_template("piezo"),
-        recordings,
-        key=jax.random.fold_in(key, 0),
-        swarm=swarm,
-        analyse=False,
-        progress=True,
-        throw=False,
-    )
-    template = CorrectedPiezoBoucWen.from_piezo(cast(PiezoBoucWen, first.model))
-    # The corrected model's default (phi, eps) bounds; the rest stays at stage 1's fit.
-    box = template.default_bounds(joint_scales(recordings))
-    space = ParameterSpace(
-        template, {name: box.bounds[name] for name in ("phi", "eps")}
-    )
-    second = identify(
-        template,
-        recordings,
-        key=jax.random.fold_in(key, 1),
-        space=space,
-        swarm=swarm,
-        start=template,  # phi = eps = 0, stage 1's fit, unless the swarm beats it
-        analyse=False,
-        progress=True,
-        throw=False,
-    )
-    joint = identify(
-        template,
-        recordings,
-        key=jax.random.fold_in(key, 2),
-        swarm=None,
-        start=second.model,
-        throw=False,
-    )
+    """`identify_corrected`, with its stages as the JSON's `stages` rows and the
+    total time of all three."""
+    joint, fits = identify_corrected(recordings, key=key, swarm=swarm, progress=True)
     stages = [
         {
             "stage": label,
@@ -764,11 +731,7 @@ def _identify_corrected(recordings: list[Recording], key, swarm: MPSO):
             "status": status_name(fit.result),
             "total_s": fit.timing["total_s"],
         }
-        for label, fit in (
-            ("piezo: all six by swarm + polish", first),
-            ("corrected: phi, eps by swarm + polish, the rest fixed", second),
-            ("corrected: all eight jointly, polished from stage 2", joint),
-        )
+        for label, fit in zip(CORRECTED_STAGES, fits)
     ]
     timing = dict(joint.timing)
     timing["total_s"] = sum(stage["total_s"] for stage in stages)
