@@ -2,6 +2,7 @@
 
 import importlib.metadata
 
+from . import synthetic as synthetic
 from ._cache import enable_compilation_cache as enable_compilation_cache
 from ._compensate import (
     AbstractCompensationMethod as AbstractCompensationMethod,
@@ -45,6 +46,7 @@ from ._diagnose._policy import AdoptionPolicy as AdoptionPolicy
 from ._diagnose._results import (
     Diagnosis as Diagnosis,
     Finding as Finding,
+    RecordingErrors as RecordingErrors,
     Score as Score,
     Unexplained as Unexplained,
     Validation as Validation,
@@ -182,25 +184,6 @@ from ._swarm import (
     SwarmResult as SwarmResult,
     SwarmState as SwarmState,
     run_swarm as run_swarm,
-)
-from ._synthetic import (
-    AbstractExcitation as AbstractExcitation,
-    ConcealedCase as ConcealedCase,
-    ConcealedTruth as ConcealedTruth,
-    SineExcitation as SineExcitation,
-    SwitchOnSine as SwitchOnSine,
-    base_truth as base_truth,
-    concealed_recording as concealed_recording,
-    demo_recording as demo_recording,
-    practical_recording as practical_recording,
-    rich_excitation as rich_excitation,
-)
-from ._synthetic_structural import (
-    StructuralCase as StructuralCase,
-    StructuralTruth as StructuralTruth,
-    loading_protocol as loading_protocol,
-    structural_base_truth as structural_base_truth,
-    structural_recording as structural_recording,
 )
 
 

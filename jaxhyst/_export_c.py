@@ -19,6 +19,7 @@ Exported: `PiezoBoucWen` and `CorrectedPiezoBoucWen` with phi = 0, with
 
 from pathlib import Path
 
+from ._files import Refusal, output_folder
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoBoucWen
 from ._smoothing import AlgebraicSign, ExactSign, TanhSign
@@ -201,15 +202,15 @@ def export_c(
             raise ValueError(
                 f"export_c: {name} must be an integer >= 1, got {value!r}."
             )
-    folder = Path(directory)
-    header, source = folder / f"{prefix}.h", folder / f"{prefix}.c"
-    existing = [str(p) for p in (header, source) if p.exists()]
-    if existing and not overwrite:
-        raise FileExistsError(
-            f"export_c: {', '.join(existing)} already exist(s); pass overwrite=True "
-            "to replace them, or choose another directory or prefix."
-        )
-    folder.mkdir(parents=True, exist_ok=True)
+    header, source = output_folder(
+        directory,
+        (f"{prefix}.h", f"{prefix}.c"),
+        overwrite=overwrite,
+        refusal=Refusal(
+            "export_c", "overwrite=True", otherwise="choose another directory or prefix"
+        ),
+        create=True,
+    )
     common = {
         "prefix": prefix,
         "model": type(model).__name__,

@@ -39,12 +39,14 @@ from typing import Any
 import equinox as eqx
 import numpy as np
 
+from ._files import Refusal, refuse_folder
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from ._models.extended import ExtendedPiezo
 from ._models.oscillator import HystereticOscillator
 from ._models.structural import StructuralBoucWen
 from ._recording import Recording
+from ._serialise import canonical, write_json
 from ._smoothing import AbstractSmoothing, AlgebraicSign, ExactSign, TanhSign
 
 
@@ -96,6 +98,29 @@ class LoadedModel(eqx.Module):
     family: str | None
     effects: tuple[str, ...]
     jaxhyst_version: str
+
+    @property
+    def input_range(self) -> tuple[float, float] | None:
+        """(min, max) of the input over the recordings it was fitted to: the range
+        inside which the model interpolates. None when the file records no
+        recording, or one without its input range."""
+        ranges = [r.get("input_range") for r in self.recordings]
+        known = [(float(r[0]), float(r[1])) for r in ranges if r is not None]
+        if not known or len(known) < len(ranges):
+            return None
+        return min(lo for lo, _ in known), max(hi for _, hi in known)
+
+    def check_units(self, recording: Recording, where: str) -> None:
+        """Refuse a recording whose declared input/output units differ from the
+        model's (where both declare one): the errors would be off by the
+        conversion. `where` names the recording in the message."""
+        for key in ("input", "output"):
+            ours, theirs = self.units[key], getattr(recording, f"{key}_unit")
+            if ours and theirs and ours != theirs:
+                raise ValueError(
+                    f"{where}: its {key} is in {theirs}, the model's in {ours}; "
+                    "convert the recording to the model's units."
+                )
 
 
 def _version() -> str:
@@ -160,8 +185,7 @@ def checksum(data: Mapping[str, Any]) -> str:
     """ "sha256:<hex>" of the canonical JSON (sorted keys, no whitespace) of every
     key of `data` but "checksum"."""
     rest = {k: v for k, v in data.items() if k != "checksum"}
-    text = json.dumps(rest, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return "sha256:" + hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return "sha256:" + hashlib.sha256(canonical(rest).encode("utf-8")).hexdigest()
 
 
 def model_file_dict(
@@ -259,18 +283,13 @@ def save_model(
     - `overwrite`: replace an existing file (refused otherwise).
     """
     data = model_file_dict(model, recording=recording, family=family, effects=effects)
-    path = Path(path)
-    if path.is_dir():
-        raise IsADirectoryError(
-            f"save_model: {str(path)!r} is a folder; pass a file name."
-        )
-    if path.exists() and not overwrite:
-        raise FileExistsError(
-            f"save_model: {str(path)!r} already exists; pass overwrite=True to "
-            "replace it, or pick another path."
-        )
-    path.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n", "utf-8")
-    return path
+    refuse_folder(path, owner="save_model")
+    return write_json(
+        data,
+        path,
+        overwrite=overwrite,
+        refusal=Refusal("save_model", "overwrite=True", otherwise="pick another path"),
+    )
 
 
 def load_model(path: str | os.PathLike, *, verify: bool = True) -> LoadedModel:

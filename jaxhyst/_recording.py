@@ -18,6 +18,7 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import ArrayLike, Float, Int
 
+from ._files import Refusal, refuse_existing
 from ._inputs import AbstractInterpolation, InputPath
 
 
@@ -277,6 +278,52 @@ class Recording(eqx.Module):
         """A copy with the output replaced by `y` (e.g. a simulated output)."""
         return self._replace(self.t, self.u, y)
 
+    @classmethod
+    def join(cls, recordings: Sequence["Recording"]) -> "Recording":
+        """Several recordings' samples one after another, as one recording named
+        "a + b + ...": the time continues across each join at the first recording's
+        step. They must share their units and sample rate (resample first). Used to
+        read several tests of one specimen as one vector (`diagnose` does); the
+        joined record is not one experiment, so do not simulate across the joins."""
+        recordings = list(recordings)
+        if not recordings or not all(isinstance(r, Recording) for r in recordings):
+            raise TypeError("Recording.join: pass a non-empty list of Recordings.")
+        first = recordings[0]
+        expected = (first.input_unit, first.output_unit, first.time_unit)
+        for other in recordings[1:]:
+            units = (other.input_unit, other.output_unit, other.time_unit)
+            if units != expected:
+                raise RecordingError(
+                    f"Recording.join: {other.name!r} has units (input, output, time) "
+                    f"{units}, {first.name!r} has {expected}; convert them to one set "
+                    "of units."
+                )
+            if abs(other.dt - first.dt) > _UNIFORM_RTOL * first.dt:
+                raise RecordingError(
+                    f"Recording.join: {other.name!r} is sampled at "
+                    f"{other.sample_rate:.6g} per {other.time_unit}, {first.name!r} "
+                    f"at {first.sample_rate:.6g}; recordings read together need one "
+                    "sample rate: resample them (Recording.resample)."
+                )
+        if len(recordings) == 1:
+            return first
+        dt = first.dt
+        times, start = [], float(first.t[0])
+        for recording in recordings:
+            times.append(start + dt * np.arange(recording.num_samples))
+            start = float(times[-1][-1]) + dt
+        return cls(
+            np.concatenate(times),
+            np.concatenate([r.u for r in recordings]),
+            np.concatenate([r.y for r in recordings]),
+            name=" + ".join(r.name for r in recordings),
+            input_name=first.input_name,
+            output_name=first.output_name,
+            input_unit=first.input_unit,
+            output_unit=first.output_unit,
+            time_unit=first.time_unit,
+        )
+
     def segment(self, start: float | None, stop: float | None) -> "Recording":
         """The samples with start <= t <= stop (None: from the beginning / to the
         end), as a new recording that keeps the original time stamps."""
@@ -522,11 +569,7 @@ class Recording(eqx.Module):
                 f"Recording.save: unknown file type {path.suffix!r} of "
                 f"{str(path)!r}; use .csv, .npz or .mat."
             )
-        if path.exists() and not overwrite:
-            raise FileExistsError(
-                f"Recording.save: {str(path)!r} already exists; pass overwrite=True "
-                "(--force on the command line) to replace it."
-            )
+        refuse_existing(path, overwrite=overwrite, refusal=Refusal("Recording.save"))
         names = ("t", self.input_name, self.output_name)
         if len(set(names)) < 3 or any(n.startswith(_META_PREFIX) for n in names):
             raise RecordingError(

@@ -528,7 +528,7 @@ def test_diagnose_analyses_the_window(short_recording, monkeypatch, capsys):
         seen.append(recording)
         raise Stop
 
-    monkeypatch.setattr("jaxhyst._cli.diagnose", stub)
+    monkeypatch.setattr("jaxhyst._cli._diagnose.diagnose", stub)
     with pytest.raises(Stop):
         main(["diagnose", str(short_recording), "--start", "1.5", "--end", "7"])
     (recording,) = seen
@@ -626,7 +626,7 @@ def test_demo_end_to_end(tmp_path, capsys):
     stdout = capsys.readouterr().out
     assert f"report: {out / 'report.md'}" in stdout
     recording = jh.Recording.load(out / "recording.csv")
-    assert recording.num_samples == jh.demo_recording().recording.num_samples
+    assert recording.num_samples == jh.synthetic.demo_recording().recording.num_samples
     fit = _strict_json(out / "fit.json")
     assert FIT_KEYS <= set(fit)
     diagnosis = _strict_json(out / "diagnosis.json")

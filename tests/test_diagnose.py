@@ -6,7 +6,7 @@ import jaxhyst as jh
 
 
 def _case(effects, seed=0, noise="white", duration=10.0, rate=500.0, size=8.0):
-    return jh.concealed_recording(
+    return jh.synthetic.concealed_recording(
         effects,
         key=jax.random.key(seed),
         duration=duration,

@@ -226,7 +226,7 @@ SHAPES = [
         (5e4, 800.0, -1100.0, 1.0, 1.0),
     ),
     (
-        jh.ConcealedTruth(PIEZO),
+        jh.synthetic.ConcealedTruth(PIEZO),
         ("A1", "beta1", "gamma1", "n"),
         (-0.4, 0.6, -0.2, 1.5, 1.0),
     ),

@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 
 import jaxhyst as jh
-from jaxhyst._synthetic_structural import (
-    EFFECTS,
-    FORMS,
+from jaxhyst.synthetic import (
+    STRUCTURAL_FORMS,
     StructuralTruth,
     loading_protocol,
     structural_base_truth,
@@ -97,7 +96,7 @@ def test_effects_change_only_the_effects():
     )
 
 
-@pytest.mark.parametrize("effect", EFFECTS)
+@pytest.mark.parametrize("effect", jh.STRUCTURAL_EFFECT_NAMES)
 @pytest.mark.parametrize("protocol", ["cyclic", "earthquake"])
 def test_requested_size_is_met(effect, protocol):
     case = _case((effect,), seed=11, protocol=protocol, size_sigmas=6.0)
@@ -106,7 +105,7 @@ def test_requested_size_is_met(effect, protocol):
     np.testing.assert_allclose(case.noiseless - y_base, change, atol=1e-9)
     assert _rms(change) / case.sigma == pytest.approx(6.0, rel=0.1)
     assert case.sizes[effect] == pytest.approx(6.0, rel=0.01)
-    assert case.forms[effect] in FORMS[effect]
+    assert case.forms[effect] in STRUCTURAL_FORMS[effect]
     assert case.effects == (effect,)
 
 
@@ -129,9 +128,9 @@ def test_both_forms_are_reachable(effect):
     seen = set()
     for seed in range(12):
         seen.add(_case((effect,), seed=seed, size_sigmas=5.0).forms[effect])
-        if seen == set(FORMS[effect]):
+        if seen == set(STRUCTURAL_FORMS[effect]):
             break
-    assert seen == set(FORMS[effect])
+    assert seen == set(STRUCTURAL_FORMS[effect])
 
 
 def test_pinching_forms_pinch_the_loop():
@@ -147,7 +146,7 @@ def test_pinching_forms_pinch_the_loop():
         band = 0.1 * np.max(np.abs(base))
         inside = [np.sum(late & (np.abs(f) < band)) for f in (pinched, base)]
         assert inside[0] > 1.3 * inside[1]
-    assert forms == set(FORMS["pinching"])
+    assert forms == set(STRUCTURAL_FORMS["pinching"])
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -228,6 +227,13 @@ def test_bad_arguments_raise_clear_errors(kwargs, error, words):
         structural_recording(effects, **arguments)
     assert words in str(info.value)
     assert "structural_recording" in str(info.value)
+
+
+def test_effect_names_are_the_catalogues():
+    from jaxhyst.synthetic._structural_sizing import _SIZERS
+
+    assert tuple(_SIZERS) == jh.STRUCTURAL_EFFECT_NAMES
+    assert tuple(STRUCTURAL_FORMS) == jh.STRUCTURAL_EFFECT_NAMES
 
 
 def test_bad_protocol_arguments():

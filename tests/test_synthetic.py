@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 import jaxhyst as jh
-from jaxhyst._synthetic import EFFECTS
 
 
 DURATION, RATE = 8.0, 500.0
@@ -14,7 +13,7 @@ DURATION, RATE = 8.0, 500.0
 
 def _case(effects, seed=0, **kwargs):
     kwargs = {"duration": DURATION, "rate": RATE, **kwargs}
-    return jh.concealed_recording(effects, key=jax.random.key(seed), **kwargs)
+    return jh.synthetic.concealed_recording(effects, key=jax.random.key(seed), **kwargs)
 
 
 def _rms(x):
@@ -27,7 +26,7 @@ def clean():
 
 
 def test_rich_excitation_is_a_piezo_drive():
-    path = jh.rich_excitation(jax.random.key(1), duration=DURATION, rate=RATE)
+    path = jh.synthetic.rich_excitation(jax.random.key(1), duration=DURATION, rate=RATE)
     u = np.asarray(path.values)
     assert path.num_samples == round(DURATION * RATE) + 1
     assert float(path.dt) == pytest.approx(1 / RATE)
@@ -41,16 +40,16 @@ def test_rich_excitation_is_a_piezo_drive():
 
 
 def test_rich_excitation_depends_on_the_key_only():
-    a = jh.rich_excitation(jax.random.key(4), duration=DURATION, rate=RATE)
-    b = jh.rich_excitation(jax.random.key(4), duration=DURATION, rate=RATE)
-    c = jh.rich_excitation(jax.random.key(5), duration=DURATION, rate=RATE)
+    a = jh.synthetic.rich_excitation(jax.random.key(4), duration=DURATION, rate=RATE)
+    b = jh.synthetic.rich_excitation(jax.random.key(4), duration=DURATION, rate=RATE)
+    c = jh.synthetic.rich_excitation(jax.random.key(5), duration=DURATION, rate=RATE)
     np.testing.assert_array_equal(a.values, b.values)
     assert not np.allclose(a.values, c.values)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_base_truth_is_a_stable_paper_like_model(seed):
-    model = jh.base_truth(jax.random.key(seed))
+    model = jh.synthetic.base_truth(jax.random.key(seed))
     assert jh.bibo_stability(model)
     p = {k: float(v) for k, v in model.parameters().items()}
     assert 1.0 <= p["n"] <= 2.5
@@ -85,7 +84,7 @@ def test_clean_recording_residual_is_the_noise(clean):
     assert 5e-4 <= clean.sigma / np.ptp(y_base) <= 2e-3
 
 
-@pytest.mark.parametrize("effect", EFFECTS)
+@pytest.mark.parametrize("effect", jh.EFFECT_NAMES)
 def test_effect_size_is_the_requested_number_of_sigmas(effect, clean):
     case = _case((effect,), seed=3, size_sigmas=5.0)
     assert case.effects == (effect,)
@@ -139,27 +138,37 @@ def test_white_noise_is_uncorrelated(clean):
 def test_bad_arguments_are_rejected():
     key = jax.random.key(0)
     with pytest.raises(ValueError, match="valid names are asymmetry, input_bias"):
-        jh.concealed_recording(("hysteresis",), key=key)
+        jh.synthetic.concealed_recording(("hysteresis",), key=key)
     with pytest.raises(TypeError, match="tuple of effect names"):
-        jh.concealed_recording("creep", key=key)  # type: ignore[arg-type]
+        jh.synthetic.concealed_recording("creep", key=key)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="twice"):
-        jh.concealed_recording(("creep", "creep"), key=key)
+        jh.synthetic.concealed_recording(("creep", "creep"), key=key)
     with pytest.raises(ValueError, match="noise must be one of"):
-        jh.concealed_recording((), key=key, noise="pink")
+        jh.synthetic.concealed_recording((), key=key, noise="pink")
     with pytest.raises(TypeError, match="PRNG key"):
-        jh.concealed_recording((), key=None)  # type: ignore[arg-type]
+        jh.synthetic.concealed_recording((), key=None)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="one size per effect"):
-        jh.concealed_recording(("creep",), key=key, size_sigmas={"drift": 3.0})
+        jh.synthetic.concealed_recording(
+            ("creep",), key=key, size_sigmas={"drift": 3.0}
+        )
     with pytest.raises(ValueError, match="positive"):
-        jh.concealed_recording(("creep",), key=key, size_sigmas=-1.0)
+        jh.synthetic.concealed_recording(("creep",), key=key, size_sigmas=-1.0)
     with pytest.raises(ValueError, match="duration"):
-        jh.concealed_recording((), key=key, duration=0.0)
+        jh.synthetic.concealed_recording((), key=key, duration=0.0)
+
+
+def test_effect_names_are_the_catalogues():
+    from jaxhyst.synthetic._sizing import _SIZERS
+
+    # One truth form per catalogue effect, in the catalogue's order (the order sets
+    # each effect's key, so it is part of what a seed means).
+    assert tuple(_SIZERS) == jh.EFFECT_NAMES
 
 
 def test_truth_with_every_effect_off_is_the_base_model():
-    model = jh.base_truth(jax.random.key(2))
-    truth = jh.ConcealedTruth(model)
-    path = jh.rich_excitation(jax.random.key(2), duration=4.0, rate=RATE)
+    model = jh.synthetic.base_truth(jax.random.key(2))
+    truth = jh.synthetic.ConcealedTruth(model)
+    path = jh.synthetic.rich_excitation(jax.random.key(2), duration=4.0, rate=RATE)
     solver = jh.RK4(substeps=2)
     np.testing.assert_allclose(
         np.asarray(jh.simulate(truth, path, solver)),
@@ -172,7 +181,7 @@ def test_truth_with_every_effect_off_is_the_base_model():
 
 
 def test_demo_recording_is_fixed_by_default():
-    demo = jh.demo_recording()
+    demo = jh.synthetic.demo_recording()
     assert demo.effects == ("asymmetry", "input_bias")
     r = demo.recording
     assert r.sample_rate == pytest.approx(1000.0)
@@ -181,7 +190,7 @@ def test_demo_recording_is_fixed_by_default():
     np.testing.assert_allclose(r.u, 50.0 * (1 - np.cos(0.2 * np.pi * r.t)), atol=1e-9)
     assert demo.sizes["asymmetry"] == pytest.approx(8.0, rel=0.1)
     assert demo.sizes["input_bias"] == pytest.approx(6.0, rel=0.1)
-    again = jh.demo_recording(key=jax.random.key(2024))
+    again = jh.synthetic.demo_recording(key=jax.random.key(2024))
     np.testing.assert_array_equal(r.y, again.recording.y)
 
 
@@ -199,7 +208,7 @@ def _spectrum_peaks(u, rate, count):
 
 
 def test_sine_excitation_is_one_sine_from_rest():
-    path = jh.SineExcitation((1.0,)).path(SHORT, SLOW_RATE)
+    path = jh.synthetic.SineExcitation((1.0,)).path(SHORT, SLOW_RATE)
     u = np.asarray(path.values)
     assert path.num_samples == round(SHORT * SLOW_RATE) + 1
     assert float(path.t1 - path.t0) == pytest.approx(SHORT)
@@ -210,7 +219,7 @@ def test_sine_excitation_is_one_sine_from_rest():
 
 
 def test_two_sines_summed_share_the_amplitude():
-    path = jh.SineExcitation((1.0, 5.0), amplitude=40.0, offset=50.0).path(
+    path = jh.synthetic.SineExcitation((1.0, 5.0), amplitude=40.0, offset=50.0).path(
         SHORT, SLOW_RATE
     )
     u = np.asarray(path.values)
@@ -224,7 +233,9 @@ def test_two_sines_summed_share_the_amplitude():
 def test_sines_in_sequence_play_one_after_the_other():
     duration = 8.0
     u = np.asarray(
-        jh.SineExcitation((0.5, 2.0), in_sequence=True).path(duration, SLOW_RATE).values
+        jh.synthetic.SineExcitation((0.5, 2.0), in_sequence=True)
+        .path(duration, SLOW_RATE)
+        .values
     )
     half = round(duration / 2 * SLOW_RATE)
     first, _ = _spectrum_peaks(u[: half + 1], SLOW_RATE, 1)
@@ -234,7 +245,9 @@ def test_sines_in_sequence_play_one_after_the_other():
 
 
 def test_switch_on_sine_holds_then_steps_into_the_sine():
-    drive = jh.SwitchOnSine(1.0, hold=1.5, rest=0.0, offset=50.0, amplitude=40.0)
+    drive = jh.synthetic.SwitchOnSine(
+        1.0, hold=1.5, rest=0.0, offset=50.0, amplitude=40.0
+    )
     path = drive.path(SHORT + 1.5, SLOW_RATE)
     t, u = np.asarray(path.times), np.asarray(path.values)
     assert float(path.t1) == pytest.approx(SHORT + 1.5)
@@ -250,8 +263,8 @@ def test_switch_on_sine_holds_then_steps_into_the_sine():
 
 
 def test_practical_recording_shares_input_base_and_noise():
-    drive = jh.SineExcitation((1.0,))
-    make = lambda effects: jh.practical_recording(
+    drive = jh.synthetic.SineExcitation((1.0,))
+    make = lambda effects: jh.synthetic.practical_recording(
         effects,
         key=jax.random.key(4),
         excitation=drive,
@@ -278,10 +291,10 @@ def test_practical_recording_shares_input_base_and_noise():
 def test_practical_recording_reports_a_size_the_input_cannot_show():
     # A stage mode is never shown with a participation above 1: on a slow sine it
     # cannot reach 1000 sigma, and the description says so.
-    case = jh.practical_recording(
+    case = jh.synthetic.practical_recording(
         ("dynamics",),
         key=jax.random.key(0),
-        excitation=jh.SineExcitation((0.5,)),
+        excitation=jh.synthetic.SineExcitation((0.5,)),
         duration=4.0,
         rate=SLOW_RATE,
         size_sigmas=1000.0,
@@ -294,37 +307,37 @@ def test_practical_recording_reports_a_size_the_input_cannot_show():
 
 def test_practical_arguments_are_rejected_clearly():
     key = jax.random.key(0)
-    drive = jh.SineExcitation((1.0,))
+    drive = jh.synthetic.SineExcitation((1.0,))
     with pytest.raises(TypeError, match="excitation must be an excitation object"):
-        jh.practical_recording((), key=key, excitation="sine")  # type: ignore[arg-type]
+        jh.synthetic.practical_recording((), key=key, excitation="sine")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="valid names are"):
-        jh.practical_recording(("hum",), key=key, excitation=drive)
+        jh.synthetic.practical_recording(("hum",), key=key, excitation=drive)
     with pytest.raises(ValueError, match="duration"):
-        jh.practical_recording((), key=key, excitation=drive, duration=-1.0)
+        jh.synthetic.practical_recording((), key=key, excitation=drive, duration=-1.0)
     with pytest.raises(ValueError, match="noise must be one of"):
-        jh.practical_recording((), key=key, excitation=drive, noise="pink")
+        jh.synthetic.practical_recording((), key=key, excitation=drive, noise="pink")
     with pytest.raises(ValueError, match="pass duration >= 2"):
-        jh.SineExcitation((0.5,)).path(1.0, SLOW_RATE)
+        jh.synthetic.SineExcitation((0.5,)).path(1.0, SLOW_RATE)
     with pytest.raises(ValueError, match="pass duration >= 4"):
-        jh.SineExcitation((0.5, 2.0), in_sequence=True).path(3.0, SLOW_RATE)
+        jh.synthetic.SineExcitation((0.5, 2.0), in_sequence=True).path(3.0, SLOW_RATE)
     with pytest.raises(ValueError, match="pass duration >= 3"):
-        jh.SwitchOnSine(1.0, hold=2.0, rise=0.5).path(3.0, SLOW_RATE)
+        jh.synthetic.SwitchOnSine(1.0, hold=2.0, rise=0.5).path(3.0, SLOW_RATE)
     with pytest.raises(ValueError, match="pass rate >= 100"):
-        jh.SineExcitation((1.0, 5.0)).path(SHORT, 50.0)
+        jh.synthetic.SineExcitation((1.0, 5.0)).path(SHORT, 50.0)
     with pytest.raises(TypeError, match="tuple of frequencies"):
-        jh.SineExcitation("1 Hz")  # type: ignore[arg-type]
+        jh.synthetic.SineExcitation("1 Hz")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="at least one frequency"):
-        jh.SineExcitation(())
+        jh.synthetic.SineExcitation(())
     with pytest.raises(ValueError, match="repeated"):
-        jh.SineExcitation((1.0, 1.0))
+        jh.synthetic.SineExcitation((1.0, 1.0))
     with pytest.raises(ValueError, match="frequencies must be positive"):
-        jh.SineExcitation((-1.0,))
+        jh.synthetic.SineExcitation((-1.0,))
     with pytest.raises(ValueError, match="unipolar 0..100 V"):
-        jh.SineExcitation((1.0,), amplitude=50.0, offset=40.0)
+        jh.synthetic.SineExcitation((1.0,), amplitude=50.0, offset=40.0)
     with pytest.raises(ValueError, match="rest level"):
-        jh.SwitchOnSine(1.0, rest=-5.0)
+        jh.synthetic.SwitchOnSine(1.0, rest=-5.0)
     with pytest.raises(ValueError, match="hold must be positive"):
-        jh.SwitchOnSine(1.0, hold=0.0)
+        jh.synthetic.SwitchOnSine(1.0, hold=0.0)
 
 
 def _practical_benchmark(monkeypatch):

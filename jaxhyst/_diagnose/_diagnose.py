@@ -10,6 +10,7 @@ Each stage is a function of the typed `_Context` (what does not change) and the
 import dataclasses
 import math
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import equinox as eqx
@@ -33,6 +34,7 @@ from ._families import AbstractFamily, PiezoFamily
 from ._locate import effective_samples
 from ._policy import AdoptionPolicy
 from ._progress import Progress
+from ._records import DiagnosisRecords
 from ._refit import RefitSettings, fitted_names, refit
 from ._remainder import remainder
 from ._results import (
@@ -41,6 +43,7 @@ from ._results import (
     Ambiguity,
     Diagnosis,
     Finding,
+    RecordingErrors,
     Rival,
     Score,
     Step,
@@ -50,7 +53,6 @@ from ._results import (
 from ._score import (
     NoiseModel,
     chi2,
-    jacobian,
     moving_columns,
     predict,
     project_off,
@@ -63,7 +65,9 @@ from ._unexplained import unexplained_structure
 class _Context(eqx.Module):
     """What every stage reads and none changes."""
 
+    # The joined record (one recording's samples, or several one after another).
     recording: Recording
+    records: DiagnosisRecords
     family: AbstractFamily
     policy: AdoptionPolicy
     key: PRNGKeyArray
@@ -190,7 +194,7 @@ def _refit(
 
 
 def _predict(ctx: _Context, model) -> np.ndarray:
-    return predict(model, ctx.inputs, ctx.solver)
+    return ctx.records.predict(model, ctx.solver)
 
 
 def _step(ctx: _Context, label: str, predicted: np.ndarray) -> Step:
@@ -237,14 +241,20 @@ def _base_fit(
     """The base model fitted on the fit mask (unless given), and the extended model
     around it with every effect off."""
     if base is None:
+        records = ctx.records
+        several = records.several
         fit = identify(
             ctx.family.base_template(),
-            ctx.recording,
+            list(records.recordings) if several else ctx.recording,
             key=ctx.key,
             space=ctx.family.base_space(ctx.recording),
             swarm=swarm,
             solver=ctx.solver,
-            weights=ctx.weights,
+            weights=[
+                jnp.asarray(m, ctx.measured.dtype) for m in records.split(ctx.fit_mask)
+            ]
+            if several
+            else ctx.weights,
             analyse=False,
             progress=progress,
             throw=False,
@@ -286,12 +296,12 @@ def _score_round(
     names = [
         n for n in fitted_names(family, current) if n not in owned or n in sensitive
     ]
-    jac = jacobian(current, names, ctx.inputs, ctx.solver)
+    jac = ctx.records.jacobian(current, names, ctx.solver)
     column = {name: jac[:, i] for i, name in enumerate(names)}
     residual = ctx.y - state.predicted
     w = ctx.fit_mask.astype(float)
     base_cols = np.stack([column[p] for p in state.free], axis=1)
-    dt = float(ctx.inputs.dt)
+    dt = float(ctx.records.one_input.dt)
     projected = {}
     for effect in remaining:
         cols = effect.directions(column, state.predicted, dt)
@@ -585,7 +595,7 @@ def _near_misses(
         effect = family.effect(trial.score.effect)
         raw[effect.name] = project_off(
             base_only,
-            effect.directions(column, state.predicted, float(ctx.inputs.dt)),
+            effect.directions(column, state.predicted, float(ctx.records.one_input.dt)),
             w,
         )
     rejected = [(t.score.effect, t.validation) for t in trials]
@@ -901,7 +911,7 @@ def _final_refit(
         state.current,
         state.free,
         max_steps=ctx.policy.final_steps,
-        weights=jnp.ones_like(ctx.weights),
+        weights=ctx.records.stacked(np.ones(ctx.y.shape, ctx.y.dtype)),
         natural={},
     )
     final_pred = _predict(ctx, final_model)
@@ -930,7 +940,7 @@ def _described(
         return ()
     ctx.progress.say("standard errors of the final model's parameters")
     names = list(state.free)
-    jac = jacobian(final_model, names, ctx.inputs, ctx.solver)
+    jac = ctx.records.jacobian(final_model, names, ctx.solver)
     errors = dict(zip(names, standard_errors(jac, ctx.y - final_pred).tolist()))
     recording = ctx.recording
     described = []
@@ -1037,7 +1047,7 @@ def _evidence(
 
 
 def diagnose(
-    recording: Recording,
+    recording: Recording | Sequence[Recording],
     *,
     key: PRNGKeyArray,
     family: AbstractFamily = PiezoFamily(),
@@ -1048,7 +1058,8 @@ def diagnose(
     progress: bool = False,
     device: jax.Device | None = None,
 ) -> Diagnosis:
-    """Find the physics `family`'s base model leaves out of `recording`.
+    """Find the physics `family`'s base model leaves out of `recording` (one
+    `Recording`, or a list of recordings of one specimen: one model for all of them).
 
     1. Hold-out: about `holdout_fraction` of the record is held out, as the family
        splits it (piezo: 30 short blocks interleaved through the record; structural:
@@ -1068,6 +1079,14 @@ def diagnose(
     5. Final refit on every sample, and the residual that remains structured on
        held-out data but matches no effect is reported as `unexplained`.
 
+    Several recordings (same units and sample rate) are diagnosed as one: each is
+    split by the family's rule (held-out data in every recording) and simulated from
+    its own initial state, all of them share the model's parameters, and the
+    sample-wise analysis reads their samples one after another (the `joined`
+    record: the `Diagnosis`'s predictions, masks and locations are on it; times
+    in it continue across the joins). `Diagnosis.per_recording` has each
+    recording's errors before and after.
+
     `policy` holds the adoption rules (`AdoptionPolicy`; None: the family's
     `default_policy()`). `swarm`: the base fit's swarm (None: the family's
     `base_swarm()`; unused when `base` is given). `device`: where the
@@ -1075,10 +1094,22 @@ def diagnose(
     (its refits and Jacobians integrate one trajectory at a time, which a CPU
     runs faster), else the default device.
     """
-    if not isinstance(recording, Recording):
+    recordings = (recording,) if isinstance(recording, Recording) else recording
+    if not isinstance(recordings, Sequence) or isinstance(recordings, str):
         raise TypeError(
-            f"diagnose: recording must be a Recording, got {type(recording).__name__}."
+            "diagnose: recording must be a Recording or a list of Recordings, got "
+            f"{type(recording).__name__}."
         )
+    if not recordings:
+        raise ValueError(
+            "diagnose: the list of recordings is empty; pass at least one."
+        )
+    for index, each in enumerate(recordings):
+        if not isinstance(each, Recording):
+            raise TypeError(
+                f"diagnose: recording[{index}] must be a Recording, got "
+                f"{type(each).__name__}."
+            )
     if not isinstance(family, AbstractFamily):
         raise TypeError(
             "diagnose: family must be a family object such as jh.PiezoFamily() or "
@@ -1096,11 +1127,13 @@ def diagnose(
         raise ValueError(
             f"diagnose: holdout_fraction={holdout_fraction} must be in [0.05, 0.5]."
         )
-    family.check(recording)
+    for each in recordings:
+        family.check(each)
+    records = DiagnosisRecords.of(tuple(recordings), "diagnose")
     device = serial_device(device)
     with running_on(device):
         return _diagnose(
-            recording,
+            records,
             moved_to(key, device),
             family=family,
             base=moved_to(base, device),
@@ -1112,7 +1145,7 @@ def diagnose(
 
 
 def _diagnose(
-    recording: Recording,
+    records: DiagnosisRecords,
     key: PRNGKeyArray,
     *,
     family: AbstractFamily,
@@ -1123,24 +1156,29 @@ def _diagnose(
     progress: bool,
 ) -> Diagnosis:
     start_time = time.perf_counter()
-    fit_mask = family.holdout(recording, holdout_fraction)
-    if fit_mask.all() or not fit_mask.any():
-        raise ValueError(
-            f"diagnose: recording {recording.name!r} is too short to hold part of it "
-            "out (the family's split left nothing on one side); record more cycles."
-        )
-    measured = jnp.asarray(recording.y)
+    recording = records.joined
+    masks = [family.holdout(each, holdout_fraction) for each in records.recordings]
+    for each, mask in zip(records.recordings, masks):
+        if mask.all() or not mask.any():
+            raise ValueError(
+                f"diagnose: recording {each.name!r} is too short to hold part of it "
+                "out (the family's split left nothing on one side); record more "
+                "cycles."
+            )
+    fit_mask = np.concatenate(masks)
+    measured = records.stacked(recording.y)
     ctx = _Context(
         recording,
+        records,
         family,
         policy,
         key,
-        recording.input_path(),
+        records.inputs,
         measured,
         np.asarray(recording.y),
         fit_mask,
         ~fit_mask,
-        jnp.asarray(fit_mask, measured.dtype),
+        records.stacked(fit_mask.astype(measured.dtype)),
         family.solver(recording),
         recording.sample_rate,
         recording.duration,
@@ -1187,6 +1225,22 @@ def _diagnose(
         if n in names
     }
     what_is_left = remainder(recording, ctx.y - final_pred, heldout=~fit_mask)
+    per_recording = ()
+    if records.several:
+        per_recording = tuple(
+            RecordingErrors(
+                each.name,
+                each.num_samples,
+                error_metrics(y, before),
+                error_metrics(y, after),
+            )
+            for each, y, before, after in zip(
+                records.recordings,
+                records.split(ctx.y),
+                records.split(base_predicted),
+                records.split(final_pred),
+            )
+        )
     return Diagnosis(
         recording.name,
         recording.num_samples,
@@ -1214,4 +1268,5 @@ def _diagnose(
         family.exports(final_model, recording),
         time.perf_counter() - start_time,
         what_is_left,
+        per_recording,
     )

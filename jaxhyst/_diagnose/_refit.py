@@ -90,12 +90,18 @@ def refit(
     if stride > 1:
         problem = decimated(problem, stride)
     z0 = space.from_model(model)
+    # `inputs` may hold several recordings on a leading axis (a diagnosis over
+    # several): lengths and model checks read one record's path.
+    length = inputs.values.shape[-1]
+    one_record = (
+        inputs if inputs.values.ndim == 1 else jax.tree.map(lambda x: x[0], inputs)
+    )
     if (
         key is not None
         and settings.swarm is not None
-        and model.sample_update(inputs) is None
+        and model.sample_update(one_record) is None
     ):
-        coarse_stride = max(1, inputs.num_samples // 2000)
+        coarse_stride = max(1, length // 2000)
         coarse = decimated(problem, max(1, coarse_stride // stride))
         swarm = run_swarm(
             swarm_objective,
@@ -119,7 +125,7 @@ def refit(
         problem,
         z0,
         [space.names.index(n) for n in free],
-        smallest=11 if problem.measured.size < inputs.num_samples else 8,
+        smallest=11 if problem.measured.shape[-1] < length else 8,
     )
     polish = LevenbergMarquardtPolish(max_steps=settings.max_steps, min_gain=1e-5)
     # `ActiveProblem` offers the part of `Problem` a polish uses.

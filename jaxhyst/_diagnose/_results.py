@@ -234,6 +234,23 @@ class Unexplained(eqx.Module):
         }
 
 
+class RecordingErrors(eqx.Module):
+    """One recording's errors before and after a diagnosis over several."""
+
+    recording: str
+    samples: int
+    baseline: dict[str, float]
+    final: dict[str, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "recording": self.recording,
+            "samples": self.samples,
+            "baseline": self.baseline,
+            "final": self.final,
+        }
+
+
 class Diagnosis(eqx.Module):
     """The result of `diagnose`; `to_dict()` is the `jaxhyst diagnose` JSON."""
 
@@ -266,6 +283,8 @@ class Diagnosis(eqx.Module):
     seconds: float
     # Where the final model still misses most, and whether the rest is noise.
     remainder: Remainder
+    # Each recording's errors, when several were diagnosed together (else empty).
+    per_recording: tuple[RecordingErrors, ...] = ()
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -310,4 +329,9 @@ class Diagnosis(eqx.Module):
             **self.exports,
             "timing": {"total_s": self.seconds},
             "remainder": self.remainder.to_dict(),
+            **(
+                {"per_recording": [r.to_dict() for r in self.per_recording]}
+                if self.per_recording
+                else {}
+            ),
         }

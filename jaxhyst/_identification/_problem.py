@@ -111,21 +111,27 @@ def stack_problems(problems: list[Problem]) -> Problem:
         w = jnp.ones_like(p.measured) if p.weights is None else p.weights
         return padded(w, 0.0)
 
-    paths = [
-        eqx.tree_at(
-            lambda i: i.values, p.inputs, padded(p.inputs.values, p.inputs.values[-1])
-        )
-        for p in problems
-    ]
-    inputs = jax.tree.map(lambda *leaves: jnp.stack(leaves), *paths)
     return Problem(
         first.space,
-        inputs,
+        stack_inputs([p.inputs for p in problems]),
         jnp.stack([padded(p.measured, 0.0) for p in problems]),
         first.solver,
         jnp.stack([weights(p) for p in problems]),
         first.stable_only,
     )
+
+
+def stack_inputs(paths: list[InputPath]) -> InputPath:
+    """Several input paths as one with a leading record axis, shorter ones padded at
+    the end to the longest by holding their last value (mask those samples out)."""
+    length = max(path.num_samples for path in paths)
+
+    def padded(path: InputPath) -> InputPath:
+        values = jnp.asarray(path.values)
+        hold = jnp.full((length - values.shape[-1],), values[-1], values.dtype)
+        return eqx.tree_at(lambda i: i.values, path, jnp.concatenate([values, hold]))
+
+    return jax.tree.map(lambda *leaves: jnp.stack(leaves), *map(padded, paths))
 
 
 def swarm_objective(z: Float[Array, " d"], problem: Problem) -> Float[Array, ""]:

@@ -1,0 +1,167 @@
+"""The command line's one table from names to objects: every `--model`, `--signal`
+and `--preset` value, what it means (for `--help`) and what it builds. A name is
+added here and nowhere else."""
+
+from collections.abc import Callable, Mapping
+from typing import NamedTuple
+
+import jax
+import numpy as np
+
+from .._diagnose._families import AbstractFamily, PiezoFamily, StructuralFamily
+from .._models.base import AbstractHysteresisModel
+from .._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
+from .._signals import AbstractSignal, Chirp, Multisine, Triangle, paper_u1, paper_u2
+
+
+# --------------------------------------------------------- simulate --model
+
+
+class ModelChoice(NamedTuple):
+    description: str
+    build: Callable[[], AbstractHysteresisModel]
+    input_unit: str
+    output_unit: str
+
+
+def _paper() -> PiezoBoucWen:
+    return PiezoBoucWen.paper_table4(3)
+
+
+SIMULATE_MODELS: dict[str, ModelChoice] = {
+    "piezo": ModelChoice(
+        "PiezoBoucWen, the paper's Table 4 case 3 (eq. 7-8)", _paper, "V", "m"
+    ),
+    "corrected": ModelChoice(
+        "CorrectedPiezoBoucWen, Table 4 case 3 with phi=0.05 s, eps=1e-6 (eq. 16-17)",
+        lambda: CorrectedPiezoBoucWen.from_piezo(_paper(), phi=0.05, eps=1e-6),
+        "V",
+        "m",
+    ),
+    "bouc-wen": ModelChoice(
+        "BoucWen (eq. 1-2), k=1, alpha=0.5, D=1, A=1, beta=0.6, gamma=0.4, n=1",
+        lambda: BoucWen(k=1.0, alpha=0.5, D=1.0, A=1.0, beta=0.6, gamma=0.4, n=1.0),
+        "",
+        "",
+    ),
+    "stage": ModelChoice(
+        "PiezoStage (eq. 3-4), Table 4 case 3 with a 50 Hz, 0.1-damped stage",
+        lambda: PiezoStage.from_piezo(
+            _paper(), natural_frequency=50.0, damping_ratio=0.1
+        ),
+        "V",
+        "m",
+    ),
+}
+
+
+# -------------------------------------------------------- simulate --signal
+
+
+class SignalChoice(NamedTuple):
+    description: str
+    build: Callable[[float, int], AbstractSignal]  # (periods, seed) -> signal
+
+
+def _multisine(periods: float, seed: int) -> AbstractSignal:
+    return Multisine.random_phase(
+        jax.random.key(seed),
+        np.array([0.1, 0.3, 0.7, 1.3]),
+        rms=0.6,
+        duration=10.0 * periods,
+        offset=2.0,
+    )
+
+
+SIGNALS: dict[str, SignalChoice] = {
+    "u1": SignalChoice(
+        "the paper's u1 = 2 - 2 cos(0.2 pi t), 0 to 4, 10 s per period",
+        lambda periods, seed: paper_u1(periods=periods),
+    ),
+    "u2": SignalChoice(
+        "the paper's u2 = 4 - 4 cos(0.2 pi t), 0 to 8, 10 s per period",
+        lambda periods, seed: paper_u2(periods=periods),
+    ),
+    "multisine": SignalChoice(
+        "random-phase multisine at 0.1, 0.3, 0.7, 1.3 Hz about 2, RMS 0.6", _multisine
+    ),
+    "chirp": SignalChoice(
+        "raised linear chirp 0 to 4 sweeping 0.1 to 2 Hz",
+        lambda periods, seed: Chirp(0.1, 2.0, 2.0, duration=10.0 * periods),
+    ),
+    "triangle": SignalChoice(
+        "raised triangle wave 0 to 4 at 0.1 Hz",
+        lambda periods, seed: Triangle(2.0, 0.1, duration=10.0 * periods),
+    ),
+}
+
+
+# --------------------------------------------------------------- fit --model
+
+
+class FitChoice(NamedTuple):
+    description: str
+    # The template identified by swarm + polish; None: the corrected model, fitted
+    # in the paper's stages by `identify_corrected`.
+    template: Callable[[], AbstractHysteresisModel] | None
+
+
+def _piezo_template() -> PiezoBoucWen:
+    return PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5)
+
+
+FIT_MODELS: dict[str, FitChoice] = {
+    "piezo": FitChoice("PiezoBoucWen (eq. 7-8)", _piezo_template),
+    "corrected": FitChoice(
+        "CorrectedPiezoBoucWen (eq. 16-17), fitted in the paper's two stages: piezo, "
+        "then (phi, eps) by the swarm, then all eight jointly",
+        None,
+    ),
+    "bouc-wen": FitChoice(
+        "BoucWen (eq. 1-2)",
+        lambda: BoucWen(k=1.0, alpha=0.5, D=1.0, A=1.0, beta=0.5, gamma=0.5, n=1.5),
+    ),
+    "stage": FitChoice(
+        "PiezoStage (eq. 3-4, with mass and damping; RK4 with 4 substeps)",
+        lambda: PiezoStage.from_piezo(
+            _piezo_template(), natural_frequency=50.0, damping_ratio=0.5
+        ),
+    ),
+}
+
+
+# ------------------------------------------------------------- fit --preset
+
+
+# The paper's MPSO settings of Table 3, by case number.
+PRESETS: dict[str, int] = {f"case{case}": case for case in (1, 2, 3, 4)}
+
+
+# ---------------------------------------------------------- diagnose --model
+
+
+DIAGNOSE_FAMILIES: dict[str, Callable[[], AbstractFamily]] = {
+    "piezo": PiezoFamily,
+    "bouc-wen": StructuralFamily,
+}
+
+
+def family(name: str) -> AbstractFamily:
+    """The diagnosis family of `diagnose --model NAME`."""
+    if name not in DIAGNOSE_FAMILIES:
+        known = (
+            f"{name!r} is a model 'jaxhyst fit' can identify, but diagnose has no "
+            "effect catalogue for it"
+            if name in FIT_MODELS
+            else f"unknown model {name!r}"
+        )
+        raise ValueError(
+            f"--model {name}: {known}; use --model piezo (piezo actuators and stages) "
+            "or --model bouc-wen (structural cyclic tests: displacement -> force)."
+        )
+    return DIAGNOSE_FAMILIES[name]()
+
+
+def described(table: Mapping[str, ModelChoice | SignalChoice | FitChoice]) -> str:
+    """ "name: description; ..." of a table, for `--help`."""
+    return "; ".join(f"{name}: {choice.description}" for name, choice in table.items())

@@ -1,0 +1,150 @@
+"""`jaxhyst diagnose`: find the physics a model leaves out of a recording;
+summary, JSON, figures, Markdown report."""
+
+import argparse
+from pathlib import Path
+
+import jax
+
+from .._diagnose._diagnose import diagnose
+from .._diagnose._families import EFFECT_NAMES
+from .._files import prepare_parent
+from .._model_files import EMBEDDED_KEY
+from .._plots import require_matplotlib
+from .._recording import Recording
+from .._report import (
+    DIAGNOSIS_FIGURES,
+    diagnosis_summary,
+    write_diagnosis_figures,
+    write_diagnosis_report,
+)
+from ._choices import family
+from ._options import (
+    add_recording_options,
+    add_swarm_options,
+    diagnosis_swarm,
+    load_recordings,
+    window,
+    window_line,
+)
+from ._outputs import (
+    check_files,
+    check_folder,
+    diagnosis_model_file,
+    print_written,
+    write_json,
+)
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "diagnose",
+        help="find the physics a piezo model leaves out of a recording; summary, "
+        "JSON, figures, Markdown report",
+        description=(
+            "Fit the quasi-static piezo model (eq. 7-8) on part of a recording, score "
+            "every catalogue effect (" + ", ".join(EFFECT_NAMES) + ") on its residual, "
+            "refit the strongest, and keep an effect only if it lowers the error on "
+            "held-out data by more than the noise; repeat. Prints the findings with "
+            "their evidence, the RMSE before/after and any ambiguities; --json, "
+            "--plots and --report save them. Existing outputs are never replaced "
+            "without --force."
+        ),
+    )
+    add_recording_options(parser, several=True)
+    parser.add_argument(
+        "--model",
+        default="piezo",
+        metavar="NAME",
+        help="the family: 'piezo' (default; PiezoBoucWen with asymmetry, input "
+        "bias, rate dependence, creep, dynamics, drift) or 'bouc-wen' (structural "
+        "cyclic tests, columns t,u,y = pseudo time, displacement, force: BoucWen with "
+        "degradation, pinching, asymmetry, drift; the JSON then carries the matching "
+        "OpenSees material under 'opensees').",
+    )
+    add_swarm_options(parser, presets=False)
+    parser.add_argument(
+        "--json",
+        metavar="PATH",
+        default=None,
+        help="write the diagnosis as JSON (schema in the README).",
+    )
+    parser.add_argument(
+        "--plots",
+        metavar="DIR",
+        default=None,
+        help="write the figures into DIR (created if missing): "
+        + ", ".join(DIAGNOSIS_FIGURES.values())
+        + ".",
+    )
+    parser.add_argument(
+        "--report",
+        metavar="PATH",
+        default=None,
+        help="write a Markdown report linking the figures (into --plots, or else a "
+        "folder PATH-stem_figures next to the report).",
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the JSON file, figures and report if they already exist.",
+    )
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    chosen = family(args.model)
+    swarm = diagnosis_swarm(args)
+    files: list[tuple[str, Path]] = []
+    json_path = Path(args.json) if args.json is not None else None
+    report_path = Path(args.report) if args.report is not None else None
+    if json_path is not None:
+        files.append(("--json", json_path))
+    if report_path is not None:
+        files.append(("--report", report_path))
+    check_files(files, args.force)
+    plots = Path(args.plots) if args.plots is not None else None
+    if plots is None and report_path is not None:
+        plots = report_path.parent / f"{report_path.stem}_figures"
+    if plots is not None:
+        check_folder("--plots", plots, DIAGNOSIS_FIGURES.values(), args.force)
+        require_matplotlib()
+    recordings = load_recordings(args)
+    # Several recordings are diagnosed as one specimen; the summary, figures and
+    # report read their samples one after another (the joined record).
+    recording = Recording.join(recordings)
+
+    diagnosis = diagnose(
+        recordings if len(recordings) > 1 else recording,
+        key=jax.random.key(args.seed),
+        family=chosen,
+        swarm=swarm,
+        progress=True,
+    )
+    line = window_line(args, recording)
+    if line is not None:
+        print(line)
+    print(diagnosis_summary(diagnosis, recording))
+    if json_path is not None:
+        data = diagnosis.to_dict()
+        data["window"] = window(args, recording)
+        data[EMBEDDED_KEY] = diagnosis_model_file(diagnosis, recordings)
+        write_json(data, json_path, args.force)
+    figures = {}
+    if plots is not None:
+        figures = write_diagnosis_figures(
+            diagnosis, recording, plots, overwrite=args.force
+        )
+        print_written(figures.values())
+    if report_path is not None:
+        extra = {"diagnosis JSON": json_path} if json_path is not None else None
+        write_diagnosis_report(
+            diagnosis,
+            recording,
+            prepare_parent(report_path),
+            figures,
+            overwrite=args.force,
+            files=extra,
+        )
+        print(f"wrote {report_path}")
+    return 0

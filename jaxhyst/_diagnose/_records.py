@@ -1,0 +1,132 @@
+"""The recordings a diagnosis reads, as its stages see them.
+
+Every sample-wise stage (hold-out masks, score test, noise model, location, what
+is left) reads one flat vector: the recordings' samples one after another, the
+`joined` record. The simulation does not run on the joined record: each recording
+is simulated from its own initial state (a stacked input path, vmapped over
+recordings, shorter ones padded and the padding dropped), so no state carries
+over from the end of one test to the start of the next.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .._identification._identifiability import output_jacobian
+from .._identification._problem import stack_inputs
+from .._inputs import InputPath
+from .._models.base import AbstractHysteresisModel
+from .._recording import Recording, RecordingError
+from .._simulate import AbstractSimulationSolver, simulate
+from ._score import jacobian, predict
+
+
+class StackedSimulation(eqx.Module):
+    """A model's output at every sample of several input paths stacked on a leading
+    axis (`(records, n)`, padding included): `StackedSimulation(inputs, solver)(model)`."""
+
+    inputs: InputPath
+    solver: AbstractSimulationSolver
+
+    def __call__(self, model: AbstractHysteresisModel) -> Float[Array, "r n"]:
+        return jax.vmap(lambda path: simulate(model, path, self.solver, throw=False))(
+            self.inputs
+        )
+
+
+@eqx.filter_jit
+def _simulated(simulation, model):
+    return simulation(model)
+
+
+class DiagnosisRecords(eqx.Module):
+    """One recording, or several of one specimen, as a diagnosis reads them.
+
+    `joined` holds every recording's samples in the order given (time continued
+    across the joins), the vector every stage analyses; `inputs` is the input path
+    the simulation runs on: the recording's own for one recording, the recordings'
+    paths stacked on a leading axis for several (shorter ones padded); `valid` marks
+    the stacked samples that are real.
+    """
+
+    recordings: tuple[Recording, ...]
+    joined: Recording
+    inputs: InputPath
+    valid: np.ndarray | None
+
+    @classmethod
+    def of(cls, recordings: tuple[Recording, ...], owner: str) -> "DiagnosisRecords":
+        """Check that `recordings` can be read as one specimen's tests and join
+        them."""
+        if len(recordings) == 1:
+            only = recordings[0]
+            return cls(recordings, only, only.input_path(), None)
+        try:
+            joined = Recording.join(recordings)
+        except RecordingError as error:
+            raise ValueError(f"{owner}: {error}") from None
+        length = max(r.num_samples for r in recordings)
+        valid = (
+            np.arange(length)[None, :]
+            < np.array([r.num_samples for r in recordings])[:, None]
+        )
+        paths = [r.input_path() for r in recordings]
+        return cls(recordings, joined, stack_inputs(paths), valid)
+
+    @property
+    def several(self) -> bool:
+        return self.valid is not None
+
+    @property
+    def one_input(self) -> InputPath:
+        """The first recording's input path (for checks that read one path)."""
+        if self.valid is None:
+            return self.inputs
+        return jax.tree.map(lambda x: x[0], self.inputs)
+
+    @property
+    def samples_per_record(self) -> int:
+        """The length of the simulated paths (the longest recording's)."""
+        return int(self.inputs.values.shape[-1])
+
+    def flat(self, stacked) -> np.ndarray:
+        """Per-sample values on the simulated paths as the joined vector."""
+        stacked = np.asarray(stacked)
+        if self.valid is None:
+            return stacked
+        rows = stacked.reshape(self.valid.size, *stacked.shape[2:])
+        return rows[self.valid.reshape(-1)]
+
+    def stacked(self, joined) -> Array:
+        """Per-sample values on the joined vector as the simulated paths hold them
+        (zero on the padding)."""
+        joined = jnp.asarray(joined)
+        if self.valid is None:
+            return joined
+        out = jnp.zeros(self.valid.shape, joined.dtype)
+        return out.at[np.nonzero(self.valid)].set(joined)
+
+    def split(self, joined: np.ndarray) -> list[np.ndarray]:
+        """The joined vector cut back into one array per recording."""
+        ends = np.cumsum([r.num_samples for r in self.recordings])[:-1]
+        return np.split(np.asarray(joined), ends)
+
+    def predict(
+        self, model: AbstractHysteresisModel, solver: AbstractSimulationSolver
+    ) -> np.ndarray:
+        """The model's output at every sample of the joined vector (NaN/inf where it
+        diverges), each recording simulated from its own initial state."""
+        if self.valid is None:
+            return predict(model, self.inputs, solver)
+        return self.flat(_simulated(StackedSimulation(self.inputs, solver), model))
+
+    def jacobian(
+        self, model: AbstractHysteresisModel, names, solver: AbstractSimulationSolver
+    ) -> np.ndarray:
+        """d output / d parameter for `names` on the joined vector."""
+        if self.valid is None:
+            return jacobian(model, names, self.inputs, solver)
+        jac, _ = output_jacobian(model, names, StackedSimulation(self.inputs, solver))
+        return jac[self.valid.reshape(-1)]

@@ -1,0 +1,39 @@
+"""A fitted model on a recording: the solver it is simulated with, and its output.
+
+`jaxhyst fit`, `evaluate` and `compensate` simulate a kind of model with one
+solver, so that a saved model is evaluated (and inverted) as it was fitted.
+"""
+
+import numpy as np
+
+from ._diagnose._families import StructuralFamily
+from ._models.base import AbstractHysteresisModel
+from ._models.bouc_wen import BoucWen, PiezoStage
+from ._models.structural import StructuralBoucWen
+from ._recording import Recording
+from ._simulate import RK4, simulate
+
+
+def default_solver(model: AbstractHysteresisModel, recording: Recording) -> RK4:
+    """The solver `jaxhyst fit` / `diagnose` simulate this kind of model with: RK4
+    with 4 substeps for `PiezoStage` (its stage is stiff on the sample scale), the
+    structural family's substeps for `BoucWen` and `StructuralBoucWen`, else one
+    RK4 step per sample."""
+    if isinstance(model, PiezoStage):
+        return RK4(substeps=4)
+    if isinstance(model, (BoucWen, StructuralBoucWen)):
+        return StructuralFamily().solver(recording)
+    return RK4()
+
+
+def predict(
+    model: AbstractHysteresisModel,
+    recording: Recording,
+    solver: RK4 | None = None,
+) -> np.ndarray:
+    """The model's output under the recording's input, from rest (`solver`:
+    `default_solver` unless given). Not checked: a diverged model gives non-finite
+    values."""
+    if solver is None:
+        solver = default_solver(model, recording)
+    return np.asarray(simulate(model, recording.input_path(), solver, throw=False))
