@@ -37,11 +37,7 @@ are synthetic: 750 Hz, force [N] -> displacement [m].
 """
 
 import argparse
-import json
-import os
-import platform
 import sys
-import time
 from pathlib import Path
 
 import jax
@@ -49,6 +45,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import _common as common  # noqa: E402
 import equinox as eqx  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -70,13 +67,9 @@ BAR = {"multisine": 1e-6, "sinesweep": 5e-6}
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--data-dir",
-        default=None,
-        help="data directory holding bouc_wen_benchmark/ (default: "
-        "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data)",
+    common.add_record_options(
+        parser, "bouc_wen_benchmark/", "jaxhyst-out/bouc_wen_benchmark"
     )
-    parser.add_argument("--seed", type=int, default=0, help="swarm seed")
     parser.add_argument(
         "--repeats",
         type=int,
@@ -89,41 +82,7 @@ def parse_args(argv=None):
         default=1,
         help="steady-state training periods given to jh.diagnose (0 skips it)",
     )
-    parser.add_argument(
-        "--out",
-        default="jaxhyst-out/bouc_wen_benchmark",
-        help="folder for the figures (created if missing)",
-    )
-    parser.add_argument("--no-figures", action="store_true", help="skip the figures")
-    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
     return parser.parse_args(argv)
-
-
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
-
-
-def cpu_name() -> str:
-    try:
-        with open("/proc/cpuinfo") as file:
-            for line in file:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
-def machine() -> dict:
-    return {
-        "python": platform.python_version(),
-        "platform": platform.platform(),
-        "processor": cpu_name(),
-        "cpu_count": os.cpu_count(),
-        "jax": jax.__version__,
-        "jaxhyst": jh.__version__,
-        "devices": [str(d) for d in jax.devices()],
-    }
 
 
 def load(data_dir):
@@ -161,7 +120,7 @@ def identify(bench, seed: int, repeats: int):
             noise_sigma=average.mean_sigma,
         )
         seconds.append(fit.timing["fit_s"])
-        log(
+        common.log(
             f"  fit {run + 1}/{repeats}: {fit.timing['fit_s']:.1f} s "
             f"(swarm {fit.timing.get('swarm_s', 0):.1f}, "
             f"LM coarse {fit.timing.get('prepolish_s', 0):.1f}, "
@@ -250,57 +209,15 @@ def diagnosis(bench, periods: int, seed: int) -> dict:
         input_unit="N",
         output_unit="m",
     )
-    start = time.perf_counter()
-    result = jh.diagnose(segment, key=jax.random.key(seed))
-    seconds = time.perf_counter() - start
-    summary = result.to_dict()
-    return {
-        "segment": segment,
-        "result": result,
-        "seconds": seconds,
-        "samples": segment.num_samples,
-        "effects": list(result.effects),
-        "baseline_rmse": float(result.baseline["rmse"]),
-        "final_rmse": float(result.final["rmse"]),
-        "findings": summary["findings"],
-        "final_parameters": summary["final"]["parameters"],
-        "ambiguities": summary["ambiguities"],
-        "screened": [
-            {
-                "round": index + 1,
-                "effect": c["effect"],
-                "statistic": float(c["statistic"]),
-                "dof": int(c["dof"]),
-                "significant": bool(c["significant"]),
-                "accepted": bool(c.get("validation", {}).get("accepted", False)),
-                "heldout_rmse_after": c.get("validation", {}).get("heldout_rmse_after"),
-            }
-            for index, round_ in enumerate(summary["candidates"])
-            for c in round_
-        ],
-    }
+    return common.diagnose(segment, seed)
 
 
 # ------------------------------------------------------------------------- figures
 
 
 def figures(out: Path, bench, fit, evaluation, truth_sweep, diag) -> list[str]:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-
-    def new(rows, height):
-        figure = Figure(figsize=(8.0, height), layout="constrained")
-        FigureCanvasAgg(figure)
-        return figure, figure.subplots(rows, 1, squeeze=False)[:, 0]
-
-    def save(figure, name):
-        path = out / name
-        figure.savefig(path, dpi=130)
-        written.append(str(path))
-
+    writer = common.FigureWriter(out)
+    new, save = writer.new, writer.save
     um = 1e6
     ms = bench.test_multisine
     figure, (top, bottom) = new(2, 6.0)
@@ -360,7 +277,7 @@ def figures(out: Path, bench, fit, evaluation, truth_sweep, diag) -> list[str]:
     save(figure, "hysteresis_loop.png")
 
     if diag is not None:
-        segment = diag["segment"]
+        segment = diag["recording"]
         result = diag["result"]
         figure, (top, bottom) = new(2, 6.0)
         window = segment.t < segment.t[0] + 1.0
@@ -370,14 +287,14 @@ def figures(out: Path, bench, fit, evaluation, truth_sweep, diag) -> list[str]:
             t,
             np.asarray(result.base_predicted)[window] * um,
             "--",
-            label=f"piezo (quasi-static), RMSE {diag['baseline_rmse']:.3g} m",
+            label=f"piezo (quasi-static), RMSE {diag['baseline']['rmse']:.3g} m",
         )
         label = "+".join(["piezo", *diag["effects"]])
         top.plot(
             t,
             np.asarray(result.final_predicted)[window] * um,
             ":",
-            label=f"{label}, RMSE {diag['final_rmse']:.3g} m",
+            label=f"{label}, RMSE {diag['final']['rmse']:.3g} m",
         )
         top.set_ylabel("displacement [um]")
         top.set_title("jh.diagnose on the training data (first second shown)")
@@ -400,7 +317,7 @@ def figures(out: Path, bench, fit, evaluation, truth_sweep, diag) -> list[str]:
         for axis in (top, bottom):
             axis.grid(alpha=0.3)
         save(figure, "diagnosis.png")
-    return written
+    return writer.written
 
 
 # ---------------------------------------------------------------------------- main
@@ -408,19 +325,9 @@ def figures(out: Path, bench, fit, evaluation, truth_sweep, diag) -> list[str]:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    data_dir = jh.default_data_dir() if args.data_dir is None else Path(args.data_dir)
-    if not args.no_figures:
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            raise SystemExit(
-                "bouc_wen_benchmark: the figures need matplotlib (pip install "
-                "'jaxhyst[plot]'); or pass --no-figures."
-            ) from None
-    log(f"data: {data_dir}")
-    bench = load(data_dir)
+    bench = load(common.open_data(args))
 
-    log("identifying from the training record ...")
+    common.log("identifying from the training record ...")
     fit, average, space, seconds = identify(bench, args.seed, args.repeats)
     model = fit.model
     params = {k: float(v) for k, v in model.parameters().items()}
@@ -434,7 +341,7 @@ def main(argv=None) -> int:
         for k in range(bench.train.num_samples // PERIOD)
     ]
 
-    log("evaluating on the test sets ...")
+    common.log("evaluating on the test sets ...")
     evaluation = evaluate(model, bench)
     floor = floors(bench)
     truth_sweep = sweep_output(
@@ -443,7 +350,7 @@ def main(argv=None) -> int:
 
     diag = None
     if args.diagnosis_periods > 0:
-        log(f"diagnosing {args.diagnosis_periods} training period(s) ...")
+        common.log(f"diagnosing {args.diagnosis_periods} training period(s) ...")
         diag = diagnosis(bench, args.diagnosis_periods, args.seed)
 
     truth = jh.HystereticOscillator.benchmark_truth().parameters()
@@ -529,7 +436,7 @@ def main(argv=None) -> int:
             f"diagnosis (jh.diagnose from the quasi-static piezo model) on "
             f"{diag['samples']} samples: {diag['seconds']:.0f} s; adopted: "
             f"{', '.join(diag['effects']) or 'nothing'}; RMSE "
-            f"{diag['baseline_rmse']:.3g} -> {diag['final_rmse']:.3g} m"
+            f"{diag['baseline']['rmse']:.3g} -> {diag['final']['rmse']:.3g} m"
         )
         for finding in diag["findings"]:
             print(f"  {finding['effect']}: {finding['evidence']}")
@@ -549,12 +456,9 @@ def main(argv=None) -> int:
         written = figures(Path(args.out), bench, fit, evaluation, truth_sweep, diag)
         print()
         print("figures: " + ", ".join(written))
-    info = machine()
+    info = common.machine_info()
     print()
-    print(
-        f"machine: {info['processor']}, {info['cpu_count']} CPUs, "
-        f"{', '.join(info['devices'])}; python {info['python']}, jax {info['jax']}"
-    )
+    common.print_machine(info)
 
     if args.json:
         result = {
@@ -578,14 +482,11 @@ def main(argv=None) -> int:
                 "from_rest_rmse_per_period": per_period,
             },
             "published_multisine_rmse": dict(PUBLISHED),
-            "diagnosis": None
-            if diag is None
-            else {k: v for k, v in diag.items() if k not in ("segment", "result")},
+            "diagnosis": None if diag is None else common.without_objects(diag),
             "figures": written,
             "machine": info,
         }
-        Path(args.json).write_text(json.dumps(result, indent=2, default=float))
-        log(f"wrote {args.json}")
+        common.write_json(result, args.json)
     return 0
 
 

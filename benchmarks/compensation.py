@@ -1,7 +1,7 @@
 """Hysteresis compensation on a plant the models never saw: does naming the
 missing physics make the feedforward track better?
 
-The plant is the concealed-truth stage of `jh.concealed_recording` (a paper-like
+The plant is the concealed-truth stage of `jh.synthetic.concealed_recording` (a paper-like
 piezo stage with the named effects hidden in it; its generator is independent of
 the models being inverted). From its training record (the rich excitation, 45 s at
 1 kHz, noise) three models are identified: the plain piezo fit (`identify`), the
@@ -24,10 +24,9 @@ reference scaled by the straight line fitted to the training record (u against y
 """
 
 import argparse
-import json
-import platform
 import time
 
+import _common as common
 import jax
 import numpy as np
 
@@ -82,7 +81,7 @@ def tracking(y, reference, stroke):
 
 def run_case(effects, seed):
     key = jax.random.key(seed)
-    case = jh.concealed_recording(
+    case = jh.synthetic.concealed_recording(
         tuple(effects), key=jax.random.fold_in(key, 0), noise="white"
     )
     recording = case.recording
@@ -150,7 +149,7 @@ def main() -> None:
         help="cases: 'clean' or effect names joined by '+'",
     )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--json", default=None)
+    common.add_json(parser)
     args = parser.parse_args()
     results = []
     for label in args.effects:
@@ -168,19 +167,7 @@ def main() -> None:
                 for k, v in row.items()
             )
             print(f"  {name:<10} RMS/max % of stroke: {cells}", flush=True)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(
-                {
-                    "cases": results,
-                    "machine": {
-                        "platform": platform.platform(),
-                        "jax": jax.__version__,
-                    },
-                },
-                f,
-                indent=2,
-            )
+    common.write_results(args.json, cases=results)
 
 
 if __name__ == "__main__":

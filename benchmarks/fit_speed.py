@@ -43,13 +43,13 @@ import time
 T0_PERF = time.perf_counter()  # as early as possible: imports count in the child
 
 import argparse  # noqa: E402
-import importlib.metadata  # noqa: E402
 import json  # noqa: E402
 import os  # noqa: E402
-import platform  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
+
+import _common as common  # noqa: E402
 
 
 RESULT_PREFIX = "FIT_SPEED_RESULT "
@@ -85,16 +85,12 @@ def parse_args(argv=None):
         default=3,
         help="cold/warm pairs of fresh-process 'jaxhyst fit' runs (0: skip them)",
     )
-    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
+    common.add_json(parser)
     parser.add_argument(
         "--child", choices=["make", "fit", "paper"], help=argparse.SUPPRESS
     )
     parser.add_argument("--recording", help=argparse.SUPPRESS)
     return parser.parse_args(argv)
-
-
-def log(message):
-    print(message, file=sys.stderr, flush=True)
 
 
 # ------------------------------------------------------------------------------ child
@@ -310,7 +306,9 @@ def cli_cold_warm(args, folder, sigma):
         cache_dir = os.path.join(folder, f"jax-cache-{i}")
         os.mkdir(cache_dir)
         for state in ("empty", "warm"):
-            log(f"cli: jaxhyst fit, {state} cache, pair {i + 1}/{args.cli_repeats}")
+            common.log(
+                f"cli: jaxhyst fit, {state} cache, pair {i + 1}/{args.cli_repeats}"
+            )
             out = os.path.join(folder, f"fit-{i}-{state}.json")
             runs[state].append(run_cli_fit(args, cache_dir, out))
     summary = {}
@@ -337,27 +335,6 @@ def cli_cold_warm(args, folder, sigma):
     }
 
 
-def versions():
-    out = {}
-    for name in ("jaxhyst", "jax", "jaxlib", "numpy", "equinox", "optimistix"):
-        try:
-            out[name] = importlib.metadata.version(name)
-        except importlib.metadata.PackageNotFoundError:
-            out[name] = None
-    return out
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def main(argv=None):
     args = parse_args(argv)
     if args.child is not None:
@@ -366,20 +343,15 @@ def main(argv=None):
         print(RESULT_PREFIX + json.dumps(result), flush=True)
         return 0
 
-    machine = {
-        "cpu_count": os.cpu_count(),
-        "cpu_model": cpu_model(),
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "load_average_before": os.getloadavg(),
-        "versions": versions(),
-        "xla_flags": (
-            f"--xla_force_host_platform_device_count={args.host_devices}"
-            if args.host_devices
-            else ""
-        ),
-    }
-    log("fit: fresh process -> jh.identify ...")
+    # The parent never imports JAX: the devices are the children's, fit["devices"].
+    machine = common.machine_info(devices=False)
+    machine["load_average_before"] = os.getloadavg()
+    machine["xla_flags"] = (
+        f"--xla_force_host_platform_device_count={args.host_devices}"
+        if args.host_devices
+        else ""
+    )
+    common.log("fit: fresh process -> jh.identify ...")
     with tempfile.TemporaryDirectory() as folder:
         args.recording = os.path.join(folder, "paper-u1.npz")
         run_child(args, "make")
@@ -389,7 +361,7 @@ def main(argv=None):
             cli = cli_cold_warm(args, folder, fit["sigma"])
     paper = None
     if not args.skip_paper:
-        log(
+        common.log(
             f"paper: MPSO.paper_case({args.paper_case}) for {args.paper_iterations} "
             "iterations ..."
         )
@@ -397,12 +369,11 @@ def main(argv=None):
     machine["load_average_after"] = os.getloadavg()
 
     m = machine
+    common.print_machine(m)
     print(
-        f"machine: {m['cpu_count']} CPUs ({m['cpu_model']}), {m['platform']}, Python "
-        f"{m['python']}; load average before {m['load_average_before'][0]:.2f}, after "
+        f"load average before {m['load_average_before'][0]:.2f}, after "
         f"{m['load_average_after'][0]:.2f}"
     )
-    print("versions: " + ", ".join(f"{k} {v}" for k, v in m["versions"].items()))
     print(f"devices: {fit['devices']}  XLA_FLAGS={m['xla_flags']!r}")
     print(
         f"recording: PiezoBoucWen.paper_table4(3) under u1 at {args.rate:g} Hz, N = "
@@ -480,20 +451,15 @@ def main(argv=None):
             "than the extrapolated paper schedule"
         )
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(
-                {
-                    "machine": machine,
-                    "settings": vars(args),
-                    "fit": fit,
-                    "cli": cli,
-                    "paper": paper,
-                    "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
-                },
-                f,
-                indent=1,
-            )
-        print(f"wrote {args.json}")
+        result = {
+            "machine": machine,
+            "settings": vars(args),
+            "fit": fit,
+            "cli": cli,
+            "paper": paper,
+            "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
+        }
+        common.write_json(result, args.json, indent=1)
     return 0
 
 

@@ -57,21 +57,17 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import _common as common  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 from paper_cases import (  # noqa: E402
     CASE_SIZES,
     UM,
     VELOCITY_LIMIT,
-    check_outputs,
-    jsonable,
-    log,
-    machine_info,
     paper_recording,
     plan_iterations,
     search_space,
     seconds_per_iteration,
-    write_json,
 )
 
 import jaxhyst as jh  # noqa: E402
@@ -121,9 +117,9 @@ def parse_args(argv=None):
         help="a smoke run: 2 seeds, MPSO Cases 1-2 capped at 60 iterations, 4 "
         "starts, Adam 200 steps",
     )
-    parser.add_argument("--json", metavar="PATH")
-    parser.add_argument("--plots", metavar="DIR")
-    parser.add_argument("--force", action="store_true")
+    common.add_json(parser)
+    parser.add_argument("--plots", metavar="DIR", help="write the figure here")
+    common.add_force(parser)
     args = parser.parse_args(argv)
     quick = args.quick
     if args.seeds is None:
@@ -305,7 +301,7 @@ def record_run(runs, method, trace, extra, note, seed, data, args):
             **extra,
         }
     )
-    log(
+    common.log(
         f"  seed {seed} {method}: final RMSE / truth {final / truth:.5f}, "
         f"{'success' if hit else 'no success'}, {trace.end[0]:.1f} s"
     )
@@ -465,9 +461,11 @@ def plot(folder, runs, truths, tolerance, lax):
 
 def main(argv=None):
     args = parse_args(argv)
-    check_outputs(args, plot_names=(PLOT_NAME,))
+    common.output_paths(
+        args.json, args.plots, (PLOT_NAME,), force=args.force, folder_option="--plots"
+    )
     started = time.perf_counter()
-    info = machine_info()
+    info = common.machine_info("optax", "diffrax", load=True)
     template = jh.PiezoBoucWen.paper_table4(3)
 
     # The recordings and problems, one per seed.
@@ -485,7 +483,7 @@ def main(argv=None):
     samples = seeds[0][3].num_samples
 
     # Warm-up: compile every polish once (not timed into any run).
-    log("warm-up (compilation) ...")
+    common.log("warm-up (compilation) ...")
     warm = {}
     problem0, z0 = seeds[0][5], jnp.full(d, 0.5)
     for name, polish in (
@@ -537,21 +535,23 @@ def main(argv=None):
         for i, case in enumerate(args.cases):
             plan = plans[case]
             method = f"MPSO Case {case}"
-            log(f"seed {seed}: {method} {CASE_SIZES[case][0]} x {plan['G_run']} ...")
+            common.log(
+                f"seed {seed}: {method} {CASE_SIZES[case][0]} x {plan['G_run']} ..."
+            )
             trace, extra = run_mpso(case, plan["G_run"], rec, space, keys[i], samples)
             note = f"G' = {plan['G_run']} of {plan['G']}"
             if plan["G_run"] < plan["G"]:
                 note += f" (SCALED x{plan['scale']:.3g}, {plan['how']})"
             record(method, trace, extra, note)
-        log(f"seed {seed}: short swarm (identify's default) ...")
+        common.log(f"seed {seed}: short swarm (identify's default) ...")
         swarm_fit = short_swarm(rec, space, keys[4])
         for method, (polish, cost, chunk) in polishes.items():
-            log(f"seed {seed}: {method} ...")
+            common.log(f"seed {seed}: {method} ...")
             trace, extra = run_polish_after(
                 swarm_fit, polish, cost, chunk, rec, problem, samples
             )
             record(method, trace, extra)
-        log(f"seed {seed}: multi-start LM ...")
+        common.log(f"seed {seed}: multi-start LM ...")
         trace, extra = run_multistart(
             args.starts, threshold, problem, keys[7], samples, d
         )
@@ -561,12 +561,11 @@ def main(argv=None):
     sentence = verdict(table, args.tolerance)
 
     # ---------------------------------------------------------------- report
+    common.print_machine(info)
     print(
-        f"machine: {info['cpu_count']} CPUs ({info['cpu_model']}), {info['platform']}, "
-        f"Python {info['python']}, devices {info['devices']}; load average at start "
-        f"{info['load_average'][0]:.2f} (other work may share the cores)"
+        f"load average at start {info['load_average'][0]:.2f} (other work may share "
+        "the cores)"
     )
-    print("versions: " + ", ".join(f"{k} {v}" for k, v in info["versions"].items()))
     truths = [s[2]["truth_rmse"] for s in seeds]
     sigmas = [s[2]["sigma"] for s in seeds]
     print(
@@ -635,25 +634,19 @@ def main(argv=None):
         folder.mkdir(parents=True, exist_ok=True)
         print(f"wrote {plot(folder, runs, truths, args.tolerance, args.lax_tolerance)}")
     if args.json:
-        write_json(
-            jsonable(
-                {
-                    "machine": info,
-                    "settings": vars(args),
-                    "success_criterion": (
-                        f"final RMSE <= {args.tolerance} x true-parameter RMSE"
-                    ),
-                    "hysteresis_peak_to_peak_m": hysteresis,
-                    "mpso_plans": plans,
-                    "warmup_s": warm,
-                    "true_rmse": truths,
-                    "table": table,
-                    "verdict": sentence,
-                    "runs": runs,
-                }
-            ),
-            args.json,
-        )
+        result = {
+            "machine": info,
+            "settings": vars(args),
+            "success_criterion": f"final RMSE <= {args.tolerance} x true-parameter RMSE",
+            "hysteresis_peak_to_peak_m": hysteresis,
+            "mpso_plans": plans,
+            "warmup_s": warm,
+            "true_rmse": truths,
+            "table": table,
+            "verdict": sentence,
+            "runs": runs,
+        }
+        common.write_json(result, args.json, indent=1)
     return 0
 
 

@@ -14,10 +14,9 @@ gives the standard errors and the weakest direction.
 """
 
 import argparse
-import json
-import platform
 import time
 
+import _common as common
 import jax
 import numpy as np
 
@@ -80,7 +79,7 @@ def summarise(fit: jh.Fit) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
-    parser.add_argument("--json", default=None)
+    common.add_json(parser)
     parser.add_argument("--data-seed", type=int, default=0)
     parser.add_argument(
         "--frequencies",
@@ -114,21 +113,10 @@ def main() -> None:
             f"{time.perf_counter() - start:.1f} s",
             flush=True,
         )
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(
-                {
-                    "truth": {k: float(v) for k, v in TRUTH.parameters().items()},
-                    "frequencies_hz": frequencies,
-                    "results": results,
-                    "machine": {
-                        "platform": platform.platform(),
-                        "jax": jax.__version__,
-                    },
-                },
-                f,
-                indent=2,
-            )
+    truth = {k: float(v) for k, v in TRUTH.parameters().items()}
+    common.write_results(
+        args.json, truth=truth, frequencies_hz=frequencies, results=results
+    )
 
 
 if __name__ == "__main__":

@@ -32,9 +32,6 @@ tell them apart.
 """
 
 import argparse
-import json
-import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -44,6 +41,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import _common as common  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy import signal  # noqa: E402
 
@@ -52,13 +50,9 @@ import jaxhyst as jh  # noqa: E402
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument(
-        "--data-dir",
-        default=None,
-        help="data directory holding piezo_actuator_smarthysteresis/ (default: "
-        "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data)",
+    common.add_record_options(
+        parser, "piezo_actuator_smarthysteresis/", "jaxhyst-out/measured_piezo"
     )
-    parser.add_argument("--seed", type=int, default=0, help="swarm seed")
     parser.add_argument(
         "--fit-start",
         type=float,
@@ -74,41 +68,7 @@ def parse_args(argv=None):
     parser.add_argument(
         "--skip-diagnosis", action="store_true", help="only describe and fit"
     )
-    parser.add_argument(
-        "--out",
-        default="jaxhyst-out/measured_piezo",
-        help="folder for the figures (created if missing)",
-    )
-    parser.add_argument("--no-figures", action="store_true", help="skip the figures")
-    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
     return parser.parse_args(argv)
-
-
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
-
-
-def cpu_name() -> str:
-    try:
-        with open("/proc/cpuinfo") as file:
-            for line in file:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
-def machine() -> dict:
-    return {
-        "python": platform.python_version(),
-        "platform": platform.platform(),
-        "processor": cpu_name(),
-        "cpu_count": os.cpu_count(),
-        "jax": jax.__version__,
-        "jaxhyst": jh.__version__,
-        "devices": [str(d) for d in jax.devices()],
-    }
 
 
 def load(data_dir):
@@ -229,68 +189,12 @@ def decimated(record: jh.Recording, rate: float) -> jh.Recording:
     )
 
 
-def run_diagnosis(record: jh.Recording, seed: int) -> dict:
-    start = time.perf_counter()
-    result = jh.diagnose(record, key=jax.random.key(seed))
-    seconds = time.perf_counter() - start
-    summary = result.to_dict()
-    return {
-        "recording": record,
-        "result": result,
-        "seconds": seconds,
-        "samples": record.num_samples,
-        "rate_hz": record.sample_rate,
-        "effects": list(result.effects),
-        "baseline": {k: float(v) for k, v in result.baseline.items()},
-        "final": {k: float(v) for k, v in result.final.items()},
-        "findings": summary["findings"],
-        "final_parameters": summary["final"]["parameters"],
-        "ambiguities": summary["ambiguities"],
-        "undecided": summary["undecided"],
-        "advice": summary["advice"],
-        "steps": summary["steps"],
-        "remainder": summary["remainder"],
-        "location": summary["location"],
-        "screened": [
-            {
-                "round": index + 1,
-                "effect": c["effect"],
-                "statistic": float(c["statistic"]),
-                "dof": int(c["dof"]),
-                "significant": bool(c["significant"]),
-                "accepted": bool(c.get("validation", {}).get("accepted", False)),
-                "heldout_rmse_before": c.get("validation", {}).get(
-                    "heldout_rmse_before"
-                ),
-                "heldout_rmse_after": c.get("validation", {}).get("heldout_rmse_after"),
-                "refit_error": c.get("refit_error"),
-            }
-            for index, round_ in enumerate(summary["candidates"])
-            for c in round_
-        ],
-    }
-
-
 # ------------------------------------------------------------------------- figures
 
 
 def figures(out: Path, record, info, fits, diagnoses) -> list[str]:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-
-    def new(rows, height):
-        figure = Figure(figsize=(8.0, height), layout="constrained")
-        FigureCanvasAgg(figure)
-        return figure, figure.subplots(rows, 1, squeeze=False)[:, 0]
-
-    def save(figure, name):
-        path = out / name
-        figure.savefig(path, dpi=130)
-        written.append(str(path))
-
+    writer = common.FigureWriter(out)
+    new, save = writer.new, writer.save
     segment, scored = fits["segment"], fits["scored"]
     piezo = np.asarray(fits["piezo"].predicted)
     corrected = np.asarray(fits["corrected"].predicted)
@@ -364,7 +268,7 @@ def figures(out: Path, record, info, fits, diagnoses) -> list[str]:
         axis.legend(loc="upper right", fontsize="small")
         axis.grid(alpha=0.3)
         save(figure, f"diagnosis_{label.replace(' ', '_')}.png")
-    return written
+    return writer.written
 
 
 # ---------------------------------------------------------------------------- main
@@ -434,20 +338,10 @@ def _print_diagnosis(label: str, diag: dict) -> None:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    data_dir = jh.default_data_dir() if args.data_dir is None else Path(args.data_dir)
-    if not args.no_figures:
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            raise SystemExit(
-                "measured_piezo: the figures need matplotlib (pip install "
-                "'jaxhyst[plot]'); or pass --no-figures."
-            ) from None
-    log(f"data: {data_dir}")
-    record = load(data_dir)
+    record = load(common.open_data(args))
     info = describe(record)
 
-    log("fitting the piezo and corrected models ...")
+    common.log("fitting the piezo and corrected models ...")
     fits = fit_models(record, info, args.fit_start, args.seed)
 
     diagnoses = {}
@@ -457,8 +351,8 @@ def main(argv=None) -> int:
             ("whole record", slow),
             ("periodic part", slow.segment(fits["periodic_start"], None)),
         ):
-            log(f"diagnosing the {label} ...")
-            diagnoses[label] = run_diagnosis(rec, args.seed)
+            common.log(f"diagnosing the {label} ...")
+            diagnoses[label] = common.diagnose(rec, args.seed)
 
     print()
     print("Measured piezo actuator (SmartHysteresis, 150 V / 1 Hz), jaxhyst")
@@ -520,13 +414,9 @@ def main(argv=None) -> int:
         written = figures(Path(args.out), record, info, fits, diagnoses)
         print()
         print("figures: " + ", ".join(written))
-    machine_info = machine()
+    machine = common.machine_info()
     print()
-    print(
-        f"machine: {machine_info['processor']}, {machine_info['cpu_count']} CPUs, "
-        f"{', '.join(machine_info['devices'])}; python {machine_info['python']}, "
-        f"jax {machine_info['jax']}"
-    )
+    common.print_machine(machine)
 
     if args.json:
         result = {
@@ -544,16 +434,12 @@ def main(argv=None) -> int:
                 for name in ("piezo", "corrected")
             },
             "diagnosis": {
-                label: {
-                    k: v for k, v in diag.items() if k not in ("recording", "result")
-                }
-                for label, diag in diagnoses.items()
+                label: common.without_objects(diag) for label, diag in diagnoses.items()
             },
             "figures": written,
-            "machine": machine_info,
+            "machine": machine,
         }
-        Path(args.json).write_text(json.dumps(result, indent=2, default=float))
-        log(f"wrote {args.json}")
+        common.write_json(result, args.json)
     return 0
 
 

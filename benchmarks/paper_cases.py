@@ -61,10 +61,8 @@ Outputs (`--json`, `--plots`) are never replaced without `--force`.
 """
 
 import argparse
-import json
 import math
 import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -74,10 +72,10 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import _common as common  # noqa: E402
 import equinox as eqx  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-from fit_speed import cpu_model, versions  # noqa: E402
 
 import jaxhyst as jh  # noqa: E402
 
@@ -214,9 +212,9 @@ def parse_args(argv=None):
         help="a smoke run of about a minute: 20 iterations per swarm, swarm on every "
         "5th sample, 2 periods of u2, no polish rows",
     )
-    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
+    common.add_json(parser)
     parser.add_argument("--plots", metavar="DIR", help="write the figures here")
-    parser.add_argument("--force", action="store_true", help="replace outputs")
+    common.add_force(parser)
     args = parser.parse_args(argv)
     if args.quick:
         if args.max_iterations is None:
@@ -238,81 +236,17 @@ def parse_args(argv=None):
     return args
 
 
-def log(message):
-    print(message, file=sys.stderr, flush=True)
-
-
 # ------------------------------------------------------------------- environment
 
 
-def machine_info():
-    """Machine, load and package versions (the benchmarks' common header)."""
-    info = {
-        "cpu_count": os.cpu_count(),
-        "cpu_model": cpu_model(),
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "load_average": os.getloadavg(),
-        "devices": [str(d) for d in jax.devices()],
-        "versions": versions(),
-    }
-    for extra in ("optax", "diffrax"):
-        try:
-            info["versions"][extra] = __import__(extra).__version__
-        except (ImportError, AttributeError):
-            info["versions"][extra] = None
-    return info
-
-
-def print_machine(info, started):
+def print_run(info, started):
+    """`machine_info`'s header, the load average at the start and now, the wall time."""
+    common.print_machine(info)
     print(
-        f"machine: {info['cpu_count']} CPUs ({info['cpu_model']}), {info['platform']}, "
-        f"Python {info['python']}, devices {info['devices']}; load average at start "
-        f"{info['load_average'][0]:.2f}, now {os.getloadavg()[0]:.2f} (other work "
-        "may share the cores)"
+        f"load average at start {info['load_average'][0]:.2f}, now "
+        f"{os.getloadavg()[0]:.2f} (other work may share the cores)"
     )
-    print("versions: " + ", ".join(f"{k} {v}" for k, v in info["versions"].items()))
     print(f"total wall time {time.perf_counter() - started:.1f} s")
-
-
-def check_outputs(args, plot_names=PLOT_NAMES):
-    """Refuse to start when an output (the JSON, or one of `plot_names` in the plots
-    folder) exists and --force is not given."""
-    paths = []
-    if args.json:
-        paths.append(Path(args.json))
-    if args.plots:
-        folder = Path(args.plots)
-        if folder.exists() and not folder.is_dir():
-            raise SystemExit(f"error: --plots {folder} is a file, not a folder")
-        paths += [folder / name for name in plot_names]
-    existing = [str(p) for p in paths if p.exists()]
-    if existing and not args.force:
-        raise SystemExit(
-            f"error: {', '.join(existing)} already exist(s); pass --force to replace"
-        )
-
-
-def jsonable(value):
-    """Strict-JSON version of results: arrays -> lists, non-finite -> None."""
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray | jax.Array):
-        return jsonable(np.asarray(value).tolist())
-    if isinstance(value, np.floating | np.integer | np.bool_):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def write_json(data, path):
-    text = json.dumps(jsonable(data), indent=1, allow_nan=False)
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Path(path).write_text(text + "\n")
-    print(f"wrote {path}")
 
 
 # -------------------------------------------------------------------------- data
@@ -473,7 +407,7 @@ def run_mpso(template, recording, space, particles, full_g, args, key, label):
         num_iterations=g,
         velocity_limit=VELOCITY_LIMIT,
     )
-    log(f"{label}: MPSO {particles} x {g} (of G = {full_g}) ...")
+    common.log(f"{label}: MPSO {particles} x {g} (of G = {full_g}) ...")
     fit = jh.identify(
         template,
         recording,
@@ -507,7 +441,7 @@ def run_mpso(template, recording, space, particles, full_g, args, key, label):
 
 def polish_row(template, recording, space, start, label):
     """Levenberg-Marquardt over `space` from `start` (jaxhyst's polish)."""
-    log(f"{label}: Levenberg-Marquardt ...")
+    common.log(f"{label}: Levenberg-Marquardt ...")
     fit = jh.identify(
         template,
         recording,
@@ -590,6 +524,23 @@ def _pyplot():
     return plt
 
 
+def _panel(axis, title, xlabel, ylabel, *, title_size=None, legend="small"):
+    """A panel's title, axis labels, light grid and legend."""
+    axis.set_title(title, **({} if title_size is None else {"fontsize": title_size}))
+    axis.set_xlabel(xlabel)
+    axis.set_ylabel(ylabel)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=legend)
+
+
+def _save(plt, fig, path, title=None):
+    """The figure (with its overall title, if any) as a PNG file, then closed."""
+    if title is not None:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot_bouc_wen(folder):
     plt = _pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
@@ -601,18 +552,18 @@ def plot_bouc_wen(folder):
                 if len(sets) > 1:
                     label = f"b={params[2]:g}, g={params[3]:g}, " + label
                 axis.plot(u, h, linewidth=1, label=label)
-        axis.set_title(
+        title = (
             f"Fig. 3({name}): beta={sets[0][2]:g}, gamma={sets[0][3]:g}"
             if len(sets) == 1
             else f"Fig. 3({name}): three (beta, gamma) pairs"
         )
-        axis.set_xlabel("u")
-        axis.set_ylabel("h")
-        axis.grid(alpha=0.3)
-        axis.legend(fontsize="x-small")
-    fig.suptitle("Table 1 parameter sets (D = A = n = 1), u = Amp sin(2 pi t)")
-    fig.savefig(folder / "fig3_table1_loops.png", dpi=110)
-    plt.close(fig)
+        _panel(axis, title, "u", "h", legend="x-small")
+    _save(
+        plt,
+        fig,
+        folder / "fig3_table1_loops.png",
+        "Table 1 parameter sets (D = A = n = 1), u = Amp sin(2 pi t)",
+    )
 
     base = dict(zip(("D", "A", "beta", "gamma", "n"), TABLE1["a"][0]))
     fig, axes = plt.subplots(1, 4, figsize=(15, 3.8), constrained_layout=True)
@@ -621,14 +572,13 @@ def plot_bouc_wen(folder):
             params = dict(base, **{name: value})
             u, h, _ = bouc_wen_loop(tuple(params.values()), 2.0)
             axis.plot(u, h, linewidth=1, label=f"{name} = {value:g}")
-        axis.set_title(f"sweep of {name} (others: set (a))")
-        axis.set_xlabel("u")
-        axis.set_ylabel("h")
-        axis.grid(alpha=0.3)
-        axis.legend(fontsize="small")
-    fig.suptitle("Figure 2 analogue: u = 2 sin(2 pi t) (illustrative values)")
-    fig.savefig(folder / "fig2_parameter_sweeps.png", dpi=110)
-    plt.close(fig)
+        _panel(axis, f"sweep of {name} (others: set (a))", "u", "h")
+    _save(
+        plt,
+        fig,
+        folder / "fig2_parameter_sweeps.png",
+        "Figure 2 analogue: u = 2 sin(2 pi t) (illustrative values)",
+    )
 
 
 def _detrended(u, curves):
@@ -657,14 +607,19 @@ def plot_case_loops(folder, data, fits, rows):
         axis.plot(rec.u, curves["truth"], "k--", linewidth=1, label="truth, noise-free")
         axis.plot(rec.u, curves["model"], linewidth=1.5, label="model")
         scale = f"G' = {row['G_run']} of {row['G']}"
-        axis.set_title(f"Case {case} ({scale})", fontsize="medium")
-        axis.set_xlabel("u [V]")
-        axis.set_ylabel("y minus straight line [um]")
-        axis.grid(alpha=0.3)
-        axis.legend(fontsize="small")
-    fig.suptitle("Figure 8 analogue: loops on u1 (detrended), uncorrected model")
-    fig.savefig(folder / "fig8_case_loops.png", dpi=110)
-    plt.close(fig)
+        _panel(
+            axis,
+            f"Case {case} ({scale})",
+            "u [V]",
+            "y minus straight line [um]",
+            title_size="medium",
+        )
+    _save(
+        plt,
+        fig,
+        folder / "fig8_case_loops.png",
+        "Figure 8 analogue: loops on u1 (detrended), uncorrected model",
+    )
 
 
 def plot_convergence(folder, rows):
@@ -679,8 +634,7 @@ def plot_convergence(folder, rows):
     axis.set_title("MPSO convergence (swarm-only fits)")
     axis.grid(alpha=0.3, which="both")
     axis.legend(fontsize="small")
-    fig.savefig(folder / "swarm_convergence.png", dpi=110)
-    plt.close(fig)
+    _save(plt, fig, folder / "swarm_convergence.png")
 
 
 def plot_corrected(folder, data, pairs, prefix, title, time_history=False):
@@ -704,14 +658,8 @@ def plot_corrected(folder, data, pairs, prefix, title, time_history=False):
         axis.plot(rec.u, curves["truth"], "k--", linewidth=1, label="truth, noise-free")
         axis.plot(rec.u, curves["NC model"], linewidth=1.2, label="NC model")
         axis.plot(rec.u, curves["C model"], linewidth=1.2, label="C model")
-        axis.set_title(label, fontsize="medium")
-        axis.set_xlabel("u [V]")
-        axis.set_ylabel("y minus straight line [um]")
-        axis.grid(alpha=0.3)
-        axis.legend(fontsize="small")
-    fig.suptitle(title[0])
-    fig.savefig(folder / prefix[0], dpi=110)
-    plt.close(fig)
+        _panel(axis, label, "u [V]", "y minus straight line [um]", title_size="medium")
+    _save(plt, fig, folder / prefix[0], title[0])
 
     fig, axes = plt.subplots(n, 1, figsize=(8, 3 * n), constrained_layout=True)
     for axis, (label, (nc, c)) in zip(np.atleast_1d(axes), pairs.items()):
@@ -719,14 +667,10 @@ def plot_corrected(folder, data, pairs, prefix, title, time_history=False):
             error = np.abs(np.asarray(fit.predicted) - data["clean"]) * UM
             axis.plot(rec.t, error, lw=1, label=name)
         axis.axhline(data["sigma"] * UM, color="0.5", ls=":", label="noise sigma")
-        axis.set_title(label, fontsize="medium")
-        axis.set_xlabel("t [s]")
-        axis.set_ylabel("|model - noise-free truth| [um]")
-        axis.grid(alpha=0.3)
-        axis.legend(fontsize="small")
-    fig.suptitle(title[1])
-    fig.savefig(folder / prefix[1], dpi=110)
-    plt.close(fig)
+        _panel(
+            axis, label, "t [s]", "|model - noise-free truth| [um]", title_size="medium"
+        )
+    _save(plt, fig, folder / prefix[1], title[1])
 
     if time_history:
         label, (nc, c) = next(iter(pairs.items()))
@@ -744,8 +688,7 @@ def plot_corrected(folder, data, pairs, prefix, title, time_history=False):
         for axis in (top, bottom):
             axis.grid(alpha=0.3)
         top.set_title(f"Figure 12 analogue: time histories under u2 ({label})")
-        fig.savefig(folder / prefix[2], dpi=110)
-        plt.close(fig)
+        _save(plt, fig, folder / prefix[2])
 
 
 # ------------------------------------------------------------------------ output
@@ -807,9 +750,11 @@ def describe_data(label, data, args):
 
 def main(argv=None):
     args = parse_args(argv)
-    check_outputs(args)
+    common.output_paths(
+        args.json, args.plots, PLOT_NAMES, force=args.force, folder_option="--plots"
+    )
     started = time.perf_counter()
-    info = machine_info()
+    info = common.machine_info("optax", "diffrax", load=True)
     result = {"machine": info, "settings": vars(args), "notes": []}
     key = jax.random.key(args.seed)
     key_u1, key_u2, key_cases, key_stage2, key_t6 = jax.random.split(key, 5)
@@ -818,22 +763,26 @@ def main(argv=None):
         plots.mkdir(parents=True, exist_ok=True)
 
     # 1. Figures 2-3 / Table 1
-    log("Bouc-Wen loops (Table 1) ...")
+    common.log("Bouc-Wen loops (Table 1) ...")
     loops = loop_table()
     result["table1_loops"] = loops
     if plots:
         plot_bouc_wen(plots)
 
     # data
-    u1 = paper_recording(
-        jh.paper_u1(),
-        key=key_u1,
-        rate=args.rate,
-        noise=args.noise,
-        phi=args.phi,
-        eps=args.eps,
-        name="paper-like u1",
-    )
+    def recording(signal, key, name):
+        """The paper-like recording of `signal`: this run's truth, rate and noise."""
+        return paper_recording(
+            signal,
+            key=key,
+            rate=args.rate,
+            noise=args.noise,
+            phi=args.phi,
+            eps=args.eps,
+            name=name,
+        )
+
+    u1 = recording(jh.paper_u1(), key_u1, "paper-like u1")
     result["u1"] = describe_data("u1", u1, args)
     rec = u1["recording"]
     truth_a1 = float(u1["base_truth"].A1)
@@ -900,15 +849,7 @@ def main(argv=None):
     # 4. Table 6: u2, multi-period: non-corrected vs joint eight-parameter fit
     table6 = []
     if not args.skip_table6:
-        u2 = paper_recording(
-            jh.paper_u2(periods=args.u2_periods),
-            key=key_u2,
-            rate=args.rate,
-            noise=args.noise,
-            phi=args.phi,
-            eps=args.eps,
-            name="paper-like u2",
-        )
+        u2 = recording(jh.paper_u2(periods=args.u2_periods), key_u2, "paper-like u2")
         result["u2"] = describe_data("u2", u2, args)
         rec2 = u2["recording"]
         space2 = search_space(template, rec2, args.beta_gamma_bound)
@@ -991,7 +932,7 @@ def main(argv=None):
 
     # ---------------------------------------------------------------- report
     result["wall_s"] = time.perf_counter() - started
-    print_machine(info, started)
+    print_run(info, started)
     print()
     for key_ in ("u1", "u2"):
         if key_ not in result:
@@ -1092,7 +1033,7 @@ def main(argv=None):
             + f"  (true phi {args.phi:g}, eps {args.eps:g})"
         )
     if args.json:
-        write_json(result, args.json)
+        common.write_json(result, args.json, indent=1)
     if plots:
         for name in PLOT_NAMES:
             if (plots / name).exists():

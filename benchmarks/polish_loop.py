@@ -10,10 +10,9 @@ medians of the ratios (persistent / restarted).
 """
 
 import argparse
-import json
-import platform
 import time
 
+import _common as common
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -76,7 +75,7 @@ def _timed(function, *args):
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--json", default=None)
+    common.add_json(parser)
     args = parser.parse_args()
     template = jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5)
     rows = []
@@ -132,22 +131,9 @@ def main() -> None:
         f"median persistent/restarted: time {time_ratio:.3f}, final RMSE "
         f"{loss_ratio:.6f}"
     )
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(
-                {
-                    "rows": rows,
-                    "median_time_ratio": time_ratio,
-                    "median_rmse_ratio": loss_ratio,
-                    "machine": {
-                        "platform": platform.platform(),
-                        "cpus": jax.local_device_count(),
-                        "jax": jax.__version__,
-                    },
-                },
-                f,
-                indent=2,
-            )
+    common.write_results(
+        args.json, rows=rows, median_time_ratio=time_ratio, median_rmse_ratio=loss_ratio
+    )
 
 
 if __name__ == "__main__":

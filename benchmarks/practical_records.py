@@ -1,7 +1,7 @@
 """Benchmark: on the records people have, does the diagnosis name only what it can
 tell, and say "cannot tell" otherwise?
 
-Runs `jaxhyst.diagnose` on `jaxhyst.practical_recording` cases: plain drives (one
+Runs `jaxhyst.diagnose` on `jh.synthetic.practical_recording` cases: plain drives (one
 sine, two sines summed or in sequence, a switch-on hold then a sine, a short record
 of five periods) x {no effect, each of the six effects alone} x `--cases` seeds,
 under white (or `--noise coloured`) sensor noise. On such records some effects look
@@ -27,7 +27,6 @@ Per seed, every excitation and effect shares the base model and the noise level
 """
 
 import argparse
-import json
 import statistics
 import sys
 import time
@@ -38,19 +37,20 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import _common as common  # noqa: E402
 import numpy as np  # noqa: E402
-from concealed_effects import EFFECTS, environment  # noqa: E402
+from concealed_effects import EFFECTS  # noqa: E402
 
 import jaxhyst as jh  # noqa: E402
 
 
 # name -> (the drive, its duration in seconds)
-EXCITATIONS: dict[str, tuple[jh.AbstractExcitation, float]] = {
-    "sine-1hz": (jh.SineExcitation((1.0,)), 20.0),
-    "two-sines": (jh.SineExcitation((1.0, 5.0)), 20.0),
-    "sequence": (jh.SineExcitation((0.5, 2.0), in_sequence=True), 20.0),
-    "switch-on": (jh.SwitchOnSine(1.0, hold=2.0), 20.0),
-    "short": (jh.SineExcitation((1.0,)), 5.0),
+EXCITATIONS: dict[str, tuple[jh.synthetic.AbstractExcitation, float]] = {
+    "sine-1hz": (jh.synthetic.SineExcitation((1.0,)), 20.0),
+    "two-sines": (jh.synthetic.SineExcitation((1.0, 5.0)), 20.0),
+    "sequence": (jh.synthetic.SineExcitation((0.5, 2.0), in_sequence=True), 20.0),
+    "switch-on": (jh.synthetic.SwitchOnSine(1.0, hold=2.0), 20.0),
+    "short": (jh.synthetic.SineExcitation((1.0,)), 5.0),
 }
 SINGLE_FREQUENCY = ("sine-1hz", "switch-on", "short")
 EFFECT_CHOICES = ("none", *EFFECTS)
@@ -89,21 +89,17 @@ def build_cases(
     ]
 
 
-def _keys(root: int, seed: int):
-    """(generation key, diagnosis key) of a seed: shared by every excitation and
-    effect, so that a seed's records share their base model and noise level."""
-    return jax.random.split(jax.random.fold_in(jax.random.key(root), seed))
-
-
 def _label(effects) -> str:
-    return "+".join(effects) if effects else "none"
+    return common.effects_label(effects, none="none")
 
 
 def run_case(spec, args) -> dict[str, Any]:
     excitation, duration = EXCITATIONS[spec["excitation"]]
-    generate_key, diagnose_key = _keys(args.seed, spec["seed"])
+    # The keys of the seed, not of the case: shared by every excitation and effect,
+    # so that a seed's records share their base model and noise level.
+    generate_key, diagnose_key = common.case_keys(args.seed, spec["seed"])
     start = time.perf_counter()
-    case = jh.practical_recording(
+    case = jh.synthetic.practical_recording(
         spec["effects"],
         key=generate_key,
         excitation=excitation,
@@ -218,9 +214,6 @@ def main(argv=None) -> int:
         "false claims, missed."
     )
     parser.add_argument(
-        "--cases", type=int, default=1, help="seeds per configuration (default 1)"
-    )
-    parser.add_argument(
         "--excitations",
         nargs="+",
         choices=tuple(EXCITATIONS),
@@ -242,21 +235,11 @@ def main(argv=None) -> int:
         help="every effect's size in noise sigmas (default: drawn from 3-10)",
     )
     parser.add_argument("--rate", type=float, default=None, help="Hz (1000)")
-    parser.add_argument("--seed", type=int, default=0, help="root seed (0)")
-    parser.add_argument("--json", metavar="PATH", help="write the results here")
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help="smoke run: the 1 Hz sine, no effect and creep, 500 Hz (filters and "
-        "--rate still apply)",
-    )
-    parser.add_argument(
-        "--dry-run",
-        action="store_true",
-        help="generate the records and print them, without diagnosing",
-    )
-    parser.add_argument(
-        "--progress", action="store_true", help="pass progress=True to diagnose"
+    common.add_suite_options(
+        parser,
+        "the 1 Hz sine, no effect and creep, 500 Hz (filters and --rate still apply)",
+        cases=1,
+        generates="the records and print them",
     )
     args = parser.parse_args(argv)
     if args.cases < 1:
@@ -269,11 +252,11 @@ def main(argv=None) -> int:
     args.rate = quick[2] if args.rate is None else args.rate
 
     specs = build_cases(excitations, effects, args.cases)
-    env = environment()
+    env = common.machine_info()
     print(
         f"practical records: {len(specs)} cases ({', '.join(excitations)}) at "
-        f"{args.rate:g} Hz, {args.noise} noise; jax {env['jax']} on "
-        f"{env['devices']}, jaxhyst {env['jaxhyst']}"
+        f"{args.rate:g} Hz, {args.noise} noise; jax {env['versions']['jax']} on "
+        f"{env['devices']}, jaxhyst {env['versions']['jaxhyst']}"
     )
     results = []
     for i, spec in enumerate(specs, start=1):
@@ -281,28 +264,22 @@ def main(argv=None) -> int:
         results.append(r)
         _print_case(i, len(specs), r)
 
-    report: dict[str, Any] = {
-        "config": {
-            "excitations": {
-                name: {"input": drive.describe(), "duration": duration}
-                for name, (drive, duration) in EXCITATIONS.items()
-                if name in excitations
-            },
-            "effects": list(effects),
-            "cases_per_configuration": args.cases,
-            "rate": args.rate,
-            "noise": args.noise,
-            "size_sigmas": args.size,
-            "seed": args.seed,
-            "quick": args.quick,
-            "dry_run": args.dry_run,
+    config = {
+        "excitations": {
+            name: {"input": drive.describe(), "duration": duration}
+            for name, (drive, duration) in EXCITATIONS.items()
+            if name in excitations
         },
-        "environment": env,
-        "generate_median_seconds": statistics.median(
-            r["generate_seconds"] for r in results
-        ),
-        "cases": results,
+        "effects": list(effects),
+        "cases_per_configuration": args.cases,
+        "rate": args.rate,
+        "noise": args.noise,
+        "size_sigmas": args.size,
+        "seed": args.seed,
+        "quick": args.quick,
+        "dry_run": args.dry_run,
     }
+    report = common.suite_report(config, env, results)
     if not args.dry_run:
         table = totals(results)
         head = headline(results)
@@ -326,15 +303,7 @@ def main(argv=None) -> int:
             f"median seconds per recording: {report['median_seconds']:.1f}; median "
             f"final RMSE {report['median_final_over_sigma']:.2f} sigma"
         )
-    print(
-        f"median generation seconds per recording: "
-        f"{report['generate_median_seconds']:.2f}"
-    )
-    if args.json:
-        with open(args.json, "w") as file:
-            json.dump(report, file, indent=2)
-        print(f"wrote {args.json}")
-    return 0
+    return common.finish_suite(report, args.json)
 
 
 if __name__ == "__main__":

@@ -31,11 +31,6 @@ Existing outputs are never replaced without `--force`.
 
 import argparse
 import importlib
-import importlib.metadata
-import json
-import math
-import os
-import platform
 import sys
 import time
 import traceback
@@ -46,6 +41,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import _common as common  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxhyst as jh  # noqa: E402
@@ -58,16 +54,6 @@ except ImportError:
 
 
 TABLE = "structural_tests.md"
-PACKAGES = (
-    "jaxhyst",
-    "jax",
-    "jaxlib",
-    "numpy",
-    "equinox",
-    "optimistix",
-    "matplotlib",
-    "openseespy",
-)
 
 
 def parse_args(argv=None):
@@ -75,12 +61,7 @@ def parse_args(argv=None):
         description=(__doc__ or "").split("\n\n")[0],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--data-dir",
-        default=None,
-        help="data directory holding the structural_* folders (default: "
-        "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data)",
-    )
+    common.add_data_dir(parser, "the structural_* folders")
     parser.add_argument(
         "--records",
         nargs="+",
@@ -112,8 +93,8 @@ def parse_args(argv=None):
         help="write the Markdown table and the loop figures into DIR (created if "
         "missing)",
     )
-    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
-    parser.add_argument("--force", action="store_true", help="replace existing outputs")
+    common.add_json(parser)
+    common.add_force(parser)
     args = parser.parse_args(argv)
     for option in ("particles", "iterations"):
         value = getattr(args, option)
@@ -122,41 +103,7 @@ def parse_args(argv=None):
     return args
 
 
-def log(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
-
-
-# -------------------------------------------------------------- machine, inputs
-
-
-def cpu_name() -> str:
-    try:
-        with open("/proc/cpuinfo") as file:
-            for line in file:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
-def machine() -> dict:
-    versions = {}
-    for package in PACKAGES:
-        try:
-            versions[package] = importlib.metadata.version(package)
-        except importlib.metadata.PackageNotFoundError:
-            versions[package] = "not installed"
-    if versions["jaxhyst"] == "not installed":
-        versions["jaxhyst"] = jh.__version__
-    return {
-        "python": platform.python_version(),
-        "platform": platform.platform(),
-        "processor": cpu_name(),
-        "cpu_count": os.cpu_count(),
-        "devices": [str(d) for d in jax.devices()],
-        "versions": versions,
-    }
+# ---------------------------------------------------------------------- inputs
 
 
 def structural_api():
@@ -184,26 +131,6 @@ def opensees_api():
     if material is None or force is None:
         return "this jaxhyst has no opensees_material / opensees_force"
     return material, force
-
-
-def output_paths(args) -> list[Path]:
-    """Every file this run writes; refuses existing ones unless --force."""
-    paths = []
-    if args.json is not None:
-        paths.append(Path(args.json))
-    if args.out is not None:
-        out = Path(args.out)
-        if out.exists() and not out.is_dir():
-            raise SystemExit(f"structural_tests: --out {str(out)!r} is a file.")
-        paths.append(out / TABLE)
-        paths += [out / f"{name}_loops.png" for name in args.records]
-    existing = [str(path) for path in paths if path.exists()]
-    if existing and not args.force:
-        raise SystemExit(
-            f"structural_tests: {', '.join(existing)} already exist(s); pass --force "
-            "to replace them, or pick another --out / --json."
-        )
-    return paths
 
 
 # ----------------------------------------------------------------- one record
@@ -272,7 +199,7 @@ def run_record(name, args, api, opensees, key) -> dict:
     y = recording.y
     scale = float(np.max(np.abs(y)))
     reversals = recording.reversals()
-    log(
+    common.log(
         f"{name}: {recording.num_samples} points, {reversals.size} reversals; "
         "diagnosing"
     )
@@ -308,11 +235,11 @@ def run_record(name, args, api, opensees, key) -> dict:
                 "heldout_gain_percent": 100 * (1 - after / before),
             }
         )
-    log(f"{name}: plain Bouc-Wen fit on the same fitted samples")
+    common.log(f"{name}: plain Bouc-Wen fit on the same fitted samples")
     plain = plain_fit(recording, family, mask, jax.random.fold_in(key, 1), swarm_kwargs)
     check = {"skipped": "--no-opensees"}
     if not args.no_opensees:
-        log(f"{name}: OpenSees comparison")
+        common.log(f"{name}: OpenSees comparison")
         check = opensees_check(opensees, diagnosis, recording)
     return {
         "record": name,
@@ -385,12 +312,13 @@ def cell(text: str) -> str:
 
 
 def markdown(results: list[dict], info: dict) -> str:
-    versions = ", ".join(f"{k} {v}" for k, v in info["versions"].items())
+    machine, versions = common.machine_lines(info)
     lines = [
         "# Structural diagnosis on real cyclic tests",
         "",
-        f"Machine: {info['processor']} ({info['cpu_count']} CPUs), "
-        f"{', '.join(info['devices'])}; Python {info['python']}; {versions}.",
+        machine,
+        "",
+        versions,
         "",
         "RMS and NRMSD (RMS / max|F|) on the held-out cycles; gains are the drop of "
         "the held-out RMS when the effect was adopted; plain BW: `jh.identify` of "
@@ -464,40 +392,20 @@ def json_ready(results: list[dict], info: dict, args) -> dict:
     }
 
 
-def finite_json(value):
-    """NaN/inf -> None, so the JSON is standard."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: finite_json(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [finite_json(v) for v in value]
-    return value
-
-
 def main(argv=None) -> int:
     args = parse_args(argv)
     api = structural_api()
-    output_paths(args)
+    names = [TABLE, *(f"{name}_loops.png" for name in args.records)]
+    common.output_paths(args.json, args.out, names, force=args.force)
     if args.out is not None:
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            raise SystemExit(
-                "structural_tests: --out needs matplotlib (pip install matplotlib)."
-            ) from None
-    if args.data_dir is None:
-        args.data_dir = jh.default_data_dir()
+        common.require_matplotlib("--out needs", "")
+    args.data_dir = common.data_dir(args.data_dir)
     opensees = "--no-opensees" if args.no_opensees else opensees_api()
     if isinstance(opensees, str) and not args.no_opensees:
-        log(f"OpenSees comparison skipped: {opensees}")
+        common.log(f"OpenSees comparison skipped: {opensees}")
 
-    info = machine()
-    print(
-        f"machine: {info['processor']} ({info['cpu_count']} CPUs), devices "
-        f"{', '.join(info['devices'])}, Python {info['python']}, {info['platform']}"
-    )
-    print("versions: " + ", ".join(f"{k} {v}" for k, v in info["versions"].items()))
+    info = common.machine_info("matplotlib", "openseespy")
+    common.print_machine(info)
     print(f"data: {args.data_dir}")
 
     key = jax.random.key(args.seed)
@@ -527,14 +435,10 @@ def main(argv=None) -> int:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         (Path(args.out) / TABLE).write_text(table)
         written.append(Path(args.out) / TABLE)
-    if args.json is not None:
-        path = Path(args.json)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        data = finite_json(json_ready(results, info, args))
-        path.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n")
-        written.append(path)
     for path in written:
         print(f"wrote {path}")
+    if args.json is not None:
+        common.write_json(json_ready(results, info, args), args.json)
     return 1 if failed else 0
 
 

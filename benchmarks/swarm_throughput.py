@@ -36,15 +36,15 @@ Run `python benchmarks/swarm_throughput.py` (or `--quick`); `--json PATH` saves 
 """
 
 import argparse
-import importlib.metadata
 import json
 import os
-import platform
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+
+import _common as common
 
 
 DURATION = 10.0  # seconds: one period of the paper's u1
@@ -125,7 +125,7 @@ def parse_args(argv=None):
         help="before each measurement wait up to SECONDS for the machine to be idle "
         "(other processes < 0.15 cores): for shared machines",
     )
-    parser.add_argument("--json", metavar="PATH", help="write the results as JSON")
+    common.add_json(parser)
     parser.add_argument(
         "--from-json", metavar="PATH", help="print the table of a saved --json result"
     )
@@ -138,53 +138,6 @@ def parse_args(argv=None):
         args.sizes, args.samples, args.iterations = [100], 2000, 2
         args.repeats, args.baseline_iterations = 2, 1
     return args
-
-
-def log(message):
-    print(message, file=sys.stderr, flush=True)
-
-
-# ------------------------------------------------------------------- machine / versions
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
-def package_version(name):
-    try:
-        return importlib.metadata.version(name)
-    except importlib.metadata.PackageNotFoundError:
-        return None
-
-
-def machine_info():
-    return {
-        "cpu_count": os.cpu_count(),
-        "cpu_model": cpu_model(),
-        "platform": platform.platform(),
-        "python": platform.python_version(),
-        "versions": {
-            name: package_version(name)
-            for name in (
-                "jaxhyst",
-                "jax",
-                "jaxlib",
-                "numpy",
-                "equinox",
-                "evosax",
-                "flax",
-                "pyswarms",
-            )
-        },
-    }
 
 
 # --------------------------------------------------------------------------- the problem
@@ -332,7 +285,7 @@ def check_objectives(bench):
         "numpy": float(np.max(np.abs(npv[ok] - ref[ok])) / scale),
         "plain_jax": float(np.max(np.abs(plain[ok] - ref[ok])) / scale),
     }
-    log(
+    common.log(
         f"  objective check ({bench.dtype_name}, {int(ok.sum())}/{len(ok)} finite): "
         f"max |diff| / max|y| numpy {dev['numpy']:.1e}, plain JAX {dev['plain_jax']:.1e}"
     )
@@ -392,6 +345,20 @@ def timed(fn):
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     after = machine_busy_seconds()
     return result, wall, (cpu, None if busy is None else after - busy)
+
+
+def timed_repeats(run, repeats, clock):
+    """`run(0)` (compilation included), then `run(1)` ... `run(repeats)` timed;
+    returns (the last result, first call s, compile s, walls, cpus)."""
+    before = clock.seconds
+    result, first, _ = timed(lambda: run(0))
+    compile_s = clock.seconds - before
+    walls, cpus = [], []
+    for rep in range(repeats):
+        result, wall, cpu = timed(lambda rep=rep: run(rep + 1))
+        walls.append(wall)
+        cpus.append(cpu)
+    return result, first, compile_s, walls, cpus
 
 
 def summarise(
@@ -464,14 +431,7 @@ def bench_jaxhyst(bench, size, args, sharding, devices, clock, as_fitted=False):
             sharding=sharding,
         )
 
-    before = clock.seconds
-    result, first, _ = timed(lambda: run(0))
-    compile_s = clock.seconds - before
-    walls, cpus = [], []
-    for rep in range(args.repeats):
-        result, wall, cpu = timed(lambda rep=rep: run(rep + 1))
-        walls.append(wall)
-        cpus.append(cpu)
+    result, first, compile_s, walls, cpus = timed_repeats(run, args.repeats, clock)
     return summarise(
         f"jaxhyst MPSO, RK4 step {k} sample{'s' if k > 1 else ''}",
         devices,
@@ -514,14 +474,7 @@ def bench_evosax(bench, size, args, objective, data, label, clock):
             state, _ = es.tell(k_tell, population, fitness, state, params)
         return jax.block_until_ready(state)
 
-    before = clock.seconds
-    _, first, _ = timed(lambda: run(0))
-    compile_s = clock.seconds - before
-    walls, cpus = [], []
-    for rep in range(args.repeats):
-        _, wall, cpu = timed(lambda rep=rep: run(rep + 1))
-        walls.append(wall)
-        cpus.append(cpu)
+    _, first, compile_s, walls, cpus = timed_repeats(run, args.repeats, clock)
     return summarise(
         label,
         "1 (native)",
@@ -643,15 +596,15 @@ def run_phase(args):
 
     jax.config.update("jax_enable_x64", True)  # float64 runs need it
     devices = jax.devices()
-    log(
+    common.log(
         f"[phase {args.phase}] devices: {devices}  XLA_FLAGS="
         f"{os.environ.get('XLA_FLAGS', '')!r}"
     )
     clock = CompileClock()
     rows, checks = [], {}
     skipped = []
-    has_pyswarms = package_version("pyswarms") is not None
-    has_evosax = package_version("evosax") is not None
+    has_pyswarms = common.package_version("pyswarms") is not None
+    has_evosax = common.package_version("evosax") is not None
     if args.phase == "native":
         if "pyswarms" in args.methods and not has_pyswarms:
             skipped.append(("PySwarms GlobalBestPSO", "pyswarms is not installed"))
@@ -719,7 +672,7 @@ def run_phase(args):
                 row = function(bench, size, args, *extra)
                 row["waited_for_idle_s"] = waited
                 rows.append(row)
-                log(
+                common.log(
                     f"  {row['method']:34s} {row['dtype']} size {row['size']:4d} "
                     f"{row['devices']:20s} {row['particle_steps_per_s'] / 1e6:8.2f} "
                     f"M/s  first {row['first_call_s']:.2f} s  compile "
@@ -788,15 +741,7 @@ def add_ratios(rows):
 
 
 def print_table(result):
-    m = result["machine"]
-    print(
-        f"machine: {m['cpu_count']} CPUs ({m['cpu_model']}), {m['platform']}, "
-        f"Python {m['python']}"
-    )
-    print(
-        "versions: "
-        + ", ".join(f"{k} {v}" for k, v in m["versions"].items() if v is not None)
-    )
+    common.print_machine(result["machine"])
     s = result["settings"]
     print(
         f"problem: PiezoBoucWen.paper_table4(3), u1, N = {s['num_samples']} samples, "
@@ -891,7 +836,8 @@ def main(argv=None):
     add_ratios(rows)
     num_samples = rows[0]["samples"] if rows else args.samples + 1
     result = {
-        "machine": machine_info(),
+        # The parent never imports JAX: the devices are in each phase's entry.
+        "machine": common.machine_info("evosax", "flax", "pyswarms", devices=False),
         "settings": {
             "sizes": args.sizes,
             "num_samples": num_samples,
@@ -907,9 +853,7 @@ def main(argv=None):
     }
     print_table(result)
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(result, f, indent=1)
-        print(f"wrote {args.json}")
+        common.write_json(result, args.json, indent=1)
     return 0
 
 

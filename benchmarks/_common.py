@@ -1,0 +1,549 @@
+"""What the benchmark scripts share: progress logging, the machine and versions,
+command-line options, JSON results, figure files and the synthetic suites' scoring.
+
+The scripts are run as `python benchmarks/<script>.py`, which puts this folder on
+`sys.path`, so they import it as `from _common import ...` (a test that imports a
+script puts the folder on `sys.path` the same way).
+
+Importing this module is cheap and imports neither JAX nor NumPy nor jaxhyst: the
+parent process of `swarm_throughput.py` must not import JAX, and `fit_speed.py`
+times its child's imports. The functions that need them import them when called.
+"""
+
+import argparse
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+from collections import Counter
+from collections.abc import Callable, Iterator
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+
+START = time.perf_counter()
+CORE_PACKAGES = ("jaxhyst", "jax", "jaxlib", "numpy", "equinox", "optimistix")
+DATA_DIR_DEFAULT = "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data"
+
+
+# --------------------------------------------------------------------------- logging
+
+
+def script_name() -> str:
+    """The running script's name without `.py` (for messages)."""
+    return Path(sys.argv[0]).stem or "benchmark"
+
+
+def log(message: str) -> None:
+    """A progress line on stderr, stamped with the seconds since the process began
+    (the results go to stdout)."""
+    print(
+        f"[{time.perf_counter() - START:7.1f} s] {message}", file=sys.stderr, flush=True
+    )
+
+
+# ----------------------------------------------------------------- machine, versions
+
+
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as file:
+            for line in file:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
+def package_version(name: str) -> str | None:
+    """The installed version of `name`; else its `__version__` if it is imported
+    (a source tree on `sys.path`); else None."""
+    try:
+        return importlib.metadata.version(name)
+    except importlib.metadata.PackageNotFoundError:
+        return getattr(sys.modules.get(name), "__version__", None)
+
+
+def versions(*extra: str) -> dict[str, str | None]:
+    """jaxhyst, jax, jaxlib, numpy, equinox, optimistix and `extra` -> version."""
+    return {name: package_version(name) for name in (*CORE_PACKAGES, *extra)}
+
+
+def machine_info(*extra: str, devices: bool = True, load: bool = False) -> dict:
+    """The date, CPU, platform, Python and package versions (`extra` beside the core
+    ones); with `devices`, JAX's devices and whether x64 is on (this imports JAX);
+    with `load`, the load average now."""
+    info: dict[str, Any] = {
+        "date": datetime.now().astimezone().isoformat(timespec="seconds"),
+        "cpu_count": os.cpu_count(),
+        "cpu_model": cpu_model(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "versions": versions(*extra),
+    }
+    if load:
+        info["load_average"] = os.getloadavg()
+    if devices:
+        import jax
+
+        info["devices"] = [str(d) for d in jax.devices()]
+        info["x64"] = bool(jax.config.read("jax_enable_x64"))
+    return info
+
+
+def machine_lines(info: dict) -> list[str]:
+    """`machine: ...` and `versions: ...` lines for `machine_info`'s dict (older
+    results without the date or the devices read as well)."""
+    parts = [
+        f"{info['cpu_count']} CPUs ({info['cpu_model']})",
+        info["platform"],
+        f"Python {info['python']}",
+    ]
+    if info.get("devices"):
+        parts.append(f"devices {', '.join(info['devices'])}")
+    date = f"; {info['date']}" if info.get("date") else ""
+    installed = ", ".join(
+        f"{name} {version or 'not installed'}"
+        for name, version in info["versions"].items()
+    )
+    return [f"machine: {', '.join(parts)}{date}", f"versions: {installed}"]
+
+
+def print_machine(info: dict) -> None:
+    for line in machine_lines(info):
+        print(line)
+
+
+# --------------------------------------------------------------------------- options
+
+
+def add_json(parser: argparse.ArgumentParser, text: str = "write the results as JSON"):
+    parser.add_argument("--json", metavar="PATH", help=text)
+
+
+def add_force(parser: argparse.ArgumentParser):
+    parser.add_argument("--force", action="store_true", help="replace existing outputs")
+
+
+def add_data_dir(parser: argparse.ArgumentParser, holding: str):
+    parser.add_argument(
+        "--data-dir",
+        default=None,
+        help=f"data directory holding {holding} (default: {DATA_DIR_DEFAULT})",
+    )
+
+
+def data_dir(value: str | None) -> Path:
+    """`--data-dir`, or jaxhyst's default data directory when it is not given."""
+    if value is not None:
+        return Path(value)
+    import jaxhyst as jh
+
+    return jh.default_data_dir()
+
+
+def add_figures(parser: argparse.ArgumentParser, out: str):
+    """`--out DIR` (default `out`) and `--no-figures`."""
+    parser.add_argument(
+        "--out", default=out, help="folder for the figures (created if missing)"
+    )
+    parser.add_argument("--no-figures", action="store_true", help="skip the figures")
+
+
+def add_record_options(parser: argparse.ArgumentParser, holding: str, out: str):
+    """--data-dir, --seed, --out, --no-figures and --json of the scripts on measured
+    records."""
+    add_data_dir(parser, holding)
+    parser.add_argument("--seed", type=int, default=0, help="swarm seed")
+    add_figures(parser, out)
+    add_json(parser)
+
+
+def open_data(args: argparse.Namespace) -> Path:
+    """`add_record_options`'s data directory; first checks that the figures can be
+    drawn (unless --no-figures), so that a run does not fail at its end."""
+    folder = data_dir(args.data_dir)
+    if not args.no_figures:
+        require_matplotlib()
+    log(f"data: {folder}")
+    return folder
+
+
+def require_matplotlib(
+    what: str = "the figures need", hint: str = "; or pass --no-figures"
+):
+    """Exit with a message now, rather than after the run, if matplotlib is missing."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise SystemExit(
+            f"{script_name()}: {what} matplotlib (pip install 'jaxhyst[plot]'){hint}."
+        ) from None
+
+
+# ----------------------------------------------------------------------- JSON, files
+
+
+def jsonable(value):
+    """Strict JSON of results: arrays and NumPy/JAX scalars -> lists and numbers,
+    tuples -> lists, non-finite numbers -> None."""
+    if value is None or isinstance(value, str | bool | int):
+        return value
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    if hasattr(value, "tolist"):  # numpy and JAX arrays and scalars
+        return jsonable(value.tolist())
+    if not isinstance(value, float) and hasattr(value, "__float__"):
+        value = float(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def write_json(data, path, *, indent: int = 2) -> Path:
+    """Write `jsonable(data)` to `path` (its folder created) and say so on stdout."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(jsonable(data), indent=indent, allow_nan=False)
+    path.write_text(text + "\n")
+    print(f"wrote {path}")
+    return path
+
+
+def write_results(path, **fields) -> None:
+    """If `path` is given, write `fields` and the machine (`machine_info()`) there."""
+    if path:
+        write_json({**fields, "machine": machine_info()}, path)
+
+
+def output_paths(
+    json_path=None,
+    folder=None,
+    names=(),
+    *,
+    force: bool = False,
+    folder_option: str = "--out",
+) -> list[Path]:
+    """The files a run will write (the JSON, and `names` in `folder`); exits before
+    the run if one exists and `force` is not set, or if `folder` is a file."""
+    paths = [Path(json_path)] if json_path else []
+    if folder:
+        folder = Path(folder)
+        if folder.exists() and not folder.is_dir():
+            raise SystemExit(
+                f"{script_name()}: {folder_option} {folder} is a file, not a folder"
+            )
+        paths += [folder / name for name in names]
+    existing = [str(path) for path in paths if path.exists()]
+    if existing and not force:
+        raise SystemExit(
+            f"{script_name()}: {', '.join(existing)} already exist(s); pass --force to "
+            "replace them"
+        )
+    return paths
+
+
+class FigureWriter:
+    """Figures (one column of panels) saved as PNG files into `folder` (created),
+    the paths kept in `written`."""
+
+    def __init__(self, folder, dpi: int = 130):
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.dpi = dpi
+        self.written: list[str] = []
+
+    def new(self, rows: int, height: float, width: float = 8.0):
+        """A figure and its `rows` axes."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        figure = Figure(figsize=(width, height), layout="constrained")
+        FigureCanvasAgg(figure)
+        return figure, figure.subplots(rows, 1, squeeze=False)[:, 0]
+
+    def save(self, figure, name: str) -> None:
+        path = self.folder / name
+        figure.savefig(path, dpi=self.dpi)
+        self.written.append(str(path))
+
+
+# ------------------------------------------------------------------------- diagnosis
+
+
+def screened(summary: dict) -> list[dict]:
+    """Every candidate of `Diagnosis.to_dict()["candidates"]`, round by round: its
+    score statistic, whether it was significant and passed held-out validation."""
+    rows = []
+    for index, round_ in enumerate(summary["candidates"]):
+        for c in round_:
+            validation = c.get("validation", {})
+            rows.append(
+                {
+                    "round": index + 1,
+                    "effect": c["effect"],
+                    "statistic": float(c["statistic"]),
+                    "dof": int(c["dof"]),
+                    "significant": bool(c["significant"]),
+                    "accepted": bool(validation.get("accepted", False)),
+                    "heldout_rmse_before": validation.get("heldout_rmse_before"),
+                    "heldout_rmse_after": validation.get("heldout_rmse_after"),
+                    "refit_error": c.get("refit_error"),
+                }
+            )
+    return rows
+
+
+def diagnose(recording, seed: int) -> dict:
+    """`jh.diagnose(recording)` with the key of `seed`, timed: the recording and the
+    diagnosis ("recording", "result": objects, see `without_objects`) and what the
+    scripts report of it."""
+    import jax
+
+    import jaxhyst as jh
+
+    start = time.perf_counter()
+    result = jh.diagnose(recording, key=jax.random.key(seed))
+    seconds = time.perf_counter() - start
+    summary = result.to_dict()
+    return {
+        "recording": recording,
+        "result": result,
+        "seconds": seconds,
+        "samples": recording.num_samples,
+        "rate_hz": recording.sample_rate,
+        "effects": list(result.effects),
+        "baseline": {k: float(v) for k, v in result.baseline.items()},
+        "final": {k: float(v) for k, v in result.final.items()},
+        "findings": summary["findings"],
+        "final_parameters": summary["final"]["parameters"],
+        "ambiguities": summary["ambiguities"],
+        "undecided": summary["undecided"],
+        "advice": summary["advice"],
+        "steps": summary["steps"],
+        "remainder": summary["remainder"],
+        "location": summary["location"],
+        "screened": screened(summary),
+    }
+
+
+def without_objects(diagnosis: dict) -> dict:
+    """`diagnose`'s dict without the recording and the diagnosis object (for JSON)."""
+    return {k: v for k, v in diagnosis.items() if k not in ("recording", "result")}
+
+
+# ------------------------------------------------------- synthetic suites (diagnosis)
+
+
+def case_keys(root: int, index: int):
+    """(generation key, diagnosis key) of case `index` under the root seed."""
+    import jax
+
+    key = jax.random.fold_in(jax.random.key(root), index)
+    return jax.random.split(key)
+
+
+def effects_label(effects, none: str = "clean") -> str:
+    return "+".join(effects) if effects else none
+
+
+def add_suite_options(
+    parser: argparse.ArgumentParser,
+    quick: str,
+    *,
+    cases: int | None = None,
+    only_example: str | None = None,
+    generates: str = "the suite and print it",
+):
+    """--cases (default `cases`; None: 3, or 1 with --quick), --quick (`quick`: what
+    it runs), --json, --seed, --dry-run, --progress and (with `only_example`) --only
+    of the synthetic suites."""
+    parser.add_argument(
+        "--cases",
+        type=int,
+        default=cases,
+        help=f"seeds per configuration (default {3 if cases is None else cases})",
+    )
+    parser.add_argument("--quick", action="store_true", help=f"smoke run: {quick}")
+    add_json(parser, "write the results here")
+    parser.add_argument("--seed", type=int, default=0, help="root seed (0)")
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help=f"generate {generates}, without diagnosing",
+    )
+    parser.add_argument(
+        "--progress", action="store_true", help="pass progress=True to diagnose"
+    )
+    if only_example is not None:
+        parser.add_argument(
+            "--only",
+            nargs="+",
+            metavar="LABEL",
+            help=f"run only these configurations (e.g. {only_example}); each keeps "
+            "the index, so the seed, it has in the whole suite",
+        )
+
+
+def selected(specs: list[dict], only) -> Iterator[tuple[int, dict]]:
+    """(index, spec) of the cases `--only` keeps (every case without it); the index
+    is the case's place in the whole suite, so it keeps its seed."""
+    for index, spec in enumerate(specs):
+        if not only or effects_label(spec["effects"]) in only:
+            yield index, spec
+
+
+def case_record(index: int, spec: dict, case, generated: float, **extra) -> dict:
+    """What a suite records of a generated case (`extra` after its noise)."""
+    return {
+        "index": index,
+        "effects": list(case.effects),
+        "noise": case.noise,
+        **extra,
+        "seed": spec["seed"],
+        "sigma": case.sigma,
+        "sizes": case.sizes,
+        "truth": case.truth_description,
+        "generate_seconds": generated,
+    }
+
+
+def diagnosed(case, run: Callable[[], Any]) -> tuple[Any, dict]:
+    """`run()`, the diagnosis of `case`, timed; returns the diagnosis and what every
+    suite records of it (the named effects, exact or not, the final residual)."""
+    start = time.perf_counter()
+    diagnosis = run()
+    wall = time.perf_counter() - start
+    named = [str(f.effect) for f in diagnosis.findings]
+    seconds = getattr(diagnosis, "seconds", None)
+    final = float(diagnosis.final_rmse)
+    return diagnosis, {
+        "named": named,
+        "exact": set(named) == set(case.effects),
+        "final_rmse": final,
+        "final_over_sigma": final / case.sigma,
+        "seconds": float(seconds) if seconds is not None else wall,
+        "wall_seconds": wall,
+    }
+
+
+def verdict(r: dict, width: int) -> str:
+    """The end of a diagnosed case's progress line: ok or MISS, named, final."""
+    named = "+".join(r["named"]) or "none"
+    mark = "ok " if r["exact"] else "MISS"
+    return (
+        f" | {mark} named {named:<{width}} final {r['final_over_sigma']:.2f} sigma "
+        f"{r['seconds']:.1f}s"
+    )
+
+
+def suite_report(config: dict, environment: dict, results: list[dict]) -> dict:
+    """The JSON report of a suite: its settings, the machine, the cases."""
+    return {
+        "config": config,
+        "environment": environment,
+        "generate_median_seconds": statistics.median(
+            r["generate_seconds"] for r in results
+        ),
+        "cases": results,
+    }
+
+
+def finish_suite(report: dict, json_path: str | None, note: str = "") -> int:
+    """The median generation time, the JSON report if asked for; exit status 0."""
+    print(
+        f"median generation seconds per recording: "
+        f"{report['generate_median_seconds']:.2f}{note}"
+    )
+    if json_path:
+        write_json(report, json_path)
+    return 0
+
+
+def mean_or_nan(values) -> float:
+    import numpy as np
+
+    return float(np.mean(values)) if values else math.nan
+
+
+def median_or_nan(values) -> float:
+    import numpy as np
+
+    return float(np.median(values)) if values else math.nan
+
+
+def confusion(results, effects) -> tuple[list[str], list[str], list[list[int]]]:
+    """Rows the true effect (a pair counts in both rows; "none" for clean records),
+    columns the named effect ("none" when nothing was named)."""
+    rows = [*effects, "none"]
+    named = {n for r in results for n in r["named"]}
+    columns = [*effects, *sorted(named - set(effects)), "none"]
+    counts: Counter = Counter()
+    for r in results:
+        truth = r["effects"] or ["none"]
+        guesses = r["named"] or ["none"]
+        for t in truth:
+            for g in guesses:
+                counts[t, g] += 1
+    return rows, columns, [[counts[r, c] for c in columns] for r in rows]
+
+
+def print_confusion(matrix: dict, width: int) -> None:
+    """`score_suite`'s confusion matrix, columns `width` characters wide."""
+    rows, columns = matrix["rows"], matrix["columns"]
+    short = [c[:width] for c in columns]
+    first = max(len(r) for r in rows) + 2
+    print("confusion (rows: true effect, columns: named effect)")
+    print(" " * first + " ".join(f"{c:>{width}}" for c in short))
+    for row, counts in zip(rows, matrix["counts"]):
+        print(f"{row:<{first}}" + " ".join(f"{n:>{width}d}" for n in counts))
+
+
+def score_suite(
+    report: dict, effects, residual_factor: float, *, effect_cases_only: bool
+) -> dict:
+    """The suite's summary and confusion matrix, stored in `report` (whose "cases"
+    are diagnosed); the residual fraction counts the effect cases only or all."""
+    results = report["cases"]
+    effect_cases = [r for r in results if r["effects"]]
+    clean_cases = [r for r in results if not r["effects"]]
+    final_cases = effect_cases if effect_cases_only else results
+    summary: dict[str, Any] = {
+        "cases": len(results),
+        "exact_set_accuracy": mean_or_nan([r["exact"] for r in effect_cases]),
+        "true_effect_recall": mean_or_nan(
+            [e in r["named"] for r in effect_cases for e in r["effects"]]
+        ),
+        "clean_no_finding_rate": mean_or_nan([not r["named"] for r in clean_cases]),
+        "final_within_1.3_sigma": mean_or_nan(
+            [r["final_over_sigma"] <= residual_factor for r in final_cases]
+        ),
+        "median_final_over_sigma": median_or_nan(
+            [r["final_over_sigma"] for r in results]
+        ),
+        "median_seconds": statistics.median(r["seconds"] for r in results),
+        "by_configuration": {},
+    }
+    groups: dict[str, list] = {}
+    for r in results:
+        groups.setdefault(f"{effects_label(r['effects'])} / {r['noise']}", []).append(r)
+    for name, group in groups.items():
+        summary["by_configuration"][name] = {
+            "cases": len(group),
+            "exact": mean_or_nan([r["exact"] for r in group]),
+            "median_final_over_sigma": median_or_nan(
+                [r["final_over_sigma"] for r in group]
+            ),
+        }
+    rows, columns, table = confusion(results, effects)
+    report["summary"] = summary
+    report["confusion"] = {"rows": rows, "columns": columns, "counts": table}
+    return summary
