@@ -78,6 +78,11 @@ class InputPath(eqx.Module):
 
     Outside [t0, t0 + (n-1)*dt] the path holds its end value with zero rate.
     Build one from arrays with `InputPath.from_samples(t, u)`, which checks the time axis.
+
+    `channels` holds further inputs sampled on the same grid, one row each (an MR
+    damper's command voltage beside its displacement), for models that read more
+    than one input (`model.input_names`); None for a single input. `values` is
+    always the first (mechanical) input.
     """
 
     t0: Float[Array, ""]
@@ -86,6 +91,7 @@ class InputPath(eqx.Module):
     interpolation: AbstractInterpolation = eqx.field(
         default_factory=LinearInterpolation
     )
+    channels: Float[Array, "k n"] | None = None
 
     def __init__(
         self,
@@ -94,6 +100,7 @@ class InputPath(eqx.Module):
         values: Float[ArrayLike, " n"],
         *,
         interpolation: AbstractInterpolation | None = None,
+        channels: Float[ArrayLike, "k n"] | None = None,
     ):
         values = jnp.asarray(values)
         if values.ndim != 1:
@@ -115,6 +122,17 @@ class InputPath(eqx.Module):
         self.interpolation = (
             LinearInterpolation() if interpolation is None else interpolation
         )
+        if channels is None:
+            self.channels = None
+        else:
+            channels = jnp.asarray(channels, values.dtype)
+            if channels.ndim != 2 or channels.shape[1] != values.shape[0]:
+                raise ValueError(
+                    f"InputPath: channels must have shape (k, {values.shape[0]}) (one "
+                    f"row per further input, as many samples as values), got "
+                    f"{channels.shape}."
+                )
+            self.channels = channels
 
     @classmethod
     def from_samples(
@@ -123,10 +141,12 @@ class InputPath(eqx.Module):
         u: Float[ArrayLike, " n"],
         *,
         interpolation: AbstractInterpolation | None = None,
+        channels: Float[ArrayLike, "k n"] | None = None,
         rtol: float = 1e-6,
     ) -> "InputPath":
-        """Build a path from sample times and values; `t` must be uniformly spaced
-        (within `rtol` of the mean step). Resample first if it is not."""
+        """Build a path from sample times and values (and further input `channels`,
+        one row each); `t` must be uniformly spaced (within `rtol` of the mean step).
+        Resample first if it is not."""
         t_np = np.asarray(t, dtype=float)
         u_arr = jnp.asarray(u)
         if t_np.ndim != 1 or u_arr.ndim != 1 or t_np.shape != u_arr.shape:
@@ -149,11 +169,46 @@ class InputPath(eqx.Module):
                 f"from {steps.min():.6g} to {steps.max():.6g}); resample onto a "
                 "uniform grid first (Recording.resample)."
             )
-        return cls(t_np[0], mean_step, u_arr, interpolation=interpolation)
+        return cls(
+            t_np[0], mean_step, u_arr, interpolation=interpolation, channels=channels
+        )
 
     @property
     def num_samples(self) -> int:
         return self.values.shape[0]
+
+    @property
+    def num_inputs(self) -> int:
+        """How many inputs the path carries (1 + the rows of `channels`)."""
+        return 1 + (0 if self.channels is None else self.channels.shape[-2])
+
+    def channels_on_interval(
+        self, interval: Int[ArrayLike, ""], frac: Float[ArrayLike, ""]
+    ) -> tuple[Float[Array, " k"], Float[Array, " k"]]:
+        """The further inputs and their rates at fraction `frac` of sample interval
+        `interval`, interpolated like `values`."""
+        if self.channels is None:
+            raise ValueError(
+                "InputPath.channels_on_interval: this path carries one input; build "
+                "it with channels=... (or a Recording with more inputs)."
+            )
+        return jax.vmap(
+            lambda row: self.interpolation.on_interval(row, self.dt, interval, frac)
+        )(self.channels)
+
+    def channels_at(
+        self, t: Float[ArrayLike, ""]
+    ) -> tuple[Float[Array, " k"], Float[Array, " k"]]:
+        """The further inputs and their rates at time `t` (held outside the
+        record, like `evaluate`)."""
+        position = (jnp.asarray(t, self.dt.dtype) - self.t0) / self.dt
+        last = self.num_samples - 1
+        interval = jnp.clip(jnp.floor(position), 0, last - 1).astype(jnp.int32)
+        inside = (position >= 0) & (position <= last)
+        values, rates = self.channels_on_interval(
+            interval, jnp.clip(position - interval, 0, 1)
+        )
+        return values, jnp.where(inside, rates, 0)
 
     @property
     def times(self) -> Float[Array, " n"]:

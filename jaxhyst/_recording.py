@@ -10,7 +10,7 @@ import csv
 import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,6 +63,12 @@ class Recording(eqx.Module):
     increasing and uniformly sampled (deviations up to 1e-3 of the step are accepted;
     pass `resample=True` to interpolate a non-uniform record onto a uniform grid), and
     `u` not constant. Arrays are stored as read-only float64 NumPy arrays.
+
+    A recording may carry further inputs beside `u` (an MR damper's command voltage
+    beside its displacement): `more_inputs={"v": values}` (names as keys, in order)
+    with `more_input_units={"v": "V"}`; they are checked like `u`, kept by every
+    method that cuts or resamples the record, saved and loaded, and passed to the
+    simulation as `input_path().channels`. `u` stays the first (mechanical) input.
     """
 
     t: Float[np.ndarray, " n"]
@@ -75,6 +81,11 @@ class Recording(eqx.Module):
     input_unit: str = eqx.field(static=True)
     output_unit: str = eqx.field(static=True)
     time_unit: str = eqx.field(static=True)
+    # Further inputs, one row each (shape (0, n) for one input), and their names and
+    # units.
+    more_inputs: Float[np.ndarray, "k n"]
+    more_input_names: tuple[str, ...] = eqx.field(static=True)
+    more_input_units: tuple[str, ...] = eqx.field(static=True)
 
     def __init__(
         self,
@@ -89,7 +100,11 @@ class Recording(eqx.Module):
         output_unit: str = "",
         time_unit: str = "s",
         resample: bool = False,
+        more_inputs: Mapping[str, Float[ArrayLike, " n"]] | None = None,
+        more_input_units: Mapping[str, str] | None = None,
     ):
+        more_inputs = {} if more_inputs is None else dict(more_inputs)
+        more_input_units = {} if more_input_units is None else dict(more_input_units)
         for option, value in (
             ("name", name),
             ("input_name", input_name),
@@ -103,26 +118,53 @@ class Recording(eqx.Module):
                     f"Recording: {option} must be a string, got {type(value).__name__}."
                 )
         where = f"Recording {name!r}"
+        for key in (*more_inputs, *more_input_units):
+            if not isinstance(key, str) or not key:
+                raise TypeError(
+                    f"{where}: more_inputs and more_input_units are keyed by input "
+                    f"names (non-empty strings), got {key!r}."
+                )
+        unknown = set(more_input_units) - set(more_inputs)
+        if unknown:
+            raise RecordingError(
+                f"{where}: more_input_units names {sorted(unknown)}, which are not "
+                f"among more_inputs {list(more_inputs)}; key the units by the same "
+                "names."
+            )
+        names = [input_name, *more_inputs, output_name]
+        if len(set(names)) < len(names):
+            raise RecordingError(
+                f"{where}: the inputs and the output need distinct names, got "
+                f"{names}; rename one."
+            )
         labels = (
             "time 't'",
             f"input {input_name!r}",
             f"output {output_name!r}",
+            *(f"input {key!r}" for key in more_inputs),
         )
         t = _as_column(labels[0], t, where)
         u = _as_column(labels[1], u, where)
         y = _as_column(labels[2], y, where)
-        if not t.shape == u.shape == y.shape:
+        more = [
+            _as_column(label, values, where)
+            for label, values in zip(labels[3:], more_inputs.values())
+        ]
+        lengths = [c.shape[0] for c in (t, u, y, *more)]
+        if len(set(lengths)) > 1:
+            counted = ", ".join(
+                f"{label} has {count}" for label, count in zip(labels, lengths)
+            )
             raise RecordingError(
-                f"{where}: length mismatch, t has {t.shape[0]}, {input_name} has "
-                f"{u.shape[0]} and {output_name} has {y.shape[0]} samples; pass "
-                "columns of equal length, one value per time stamp."
+                f"{where}: length mismatch, {counted} samples; pass columns of equal "
+                "length, one value per time stamp."
             )
         n = t.shape[0]
         if n < 2:
             raise RecordingError(
                 f"{where}: has {n} sample(s); a recording needs at least 2."
             )
-        for label, column in zip(labels, (t, u, y), strict=True):
+        for label, column in zip(labels, (t, u, y, *more), strict=True):
             bad = ~np.isfinite(column)
             if bad.any():
                 row = int(np.argmax(bad))
@@ -152,6 +194,7 @@ class Recording(eqx.Module):
             grid[-1] = t[-1]
             u = np.asarray(np.interp(grid, t, u))
             y = np.asarray(np.interp(grid, t, y))
+            more = [np.asarray(np.interp(grid, t, c)) for c in more]
             t = grid
         if np.ptp(u) == 0:
             raise RecordingError(
@@ -159,11 +202,15 @@ class Recording(eqx.Module):
                 "whole record, so nothing excites the hysteresis; pick a segment "
                 "where the input varies, or check the column selection."
             )
-        for column in (t, u, y):
+        stacked = np.stack(more) if more else np.zeros((0, n), np.float64)
+        for column in (t, u, y, stacked):
             column.setflags(write=False)
         self.t = t
         self.u = u
         self.y = y
+        self.more_inputs = stacked
+        self.more_input_names = tuple(more_inputs)
+        self.more_input_units = tuple(more_input_units.get(k, "") for k in more_inputs)
         self.name = name
         self.input_name = input_name
         self.output_name = output_name
@@ -234,6 +281,25 @@ class Recording(eqx.Module):
         return self.time_unit in ("sample", "pseudo s")
 
     @property
+    def input_names(self) -> tuple[str, ...]:
+        """Every input's name: `input_name`, then `more_input_names`."""
+        return (self.input_name, *self.more_input_names)
+
+    @property
+    def num_inputs(self) -> int:
+        """How many inputs the recording carries (1 + the further inputs)."""
+        return 1 + len(self.more_input_names)
+
+    def more_input(self, name: str) -> Float[np.ndarray, " n"]:
+        """The further input called `name`."""
+        if name not in self.more_input_names:
+            raise KeyError(
+                f"Recording {self.name!r} has no further input {name!r}; its inputs "
+                f"are {self.input_names}."
+            )
+        return self.more_inputs[self.more_input_names.index(name)]
+
+    @property
     def num_samples(self) -> int:
         """Number of samples."""
         return int(self.t.shape[0])
@@ -255,7 +321,11 @@ class Recording(eqx.Module):
 
     # --------------------------------------------------------------------- methods
 
-    def _replace(self, t, u, y) -> "Recording":
+    def _replace(self, t, u, y, more=None) -> "Recording":
+        """A recording with new columns and this one's names and units; `more`: the
+        further inputs (one row each), as many rows as this one has (None: keep
+        them, for the same samples)."""
+        more = self.more_inputs if more is None else more
         return Recording(
             t,
             u,
@@ -266,13 +336,31 @@ class Recording(eqx.Module):
             input_unit=self.input_unit,
             output_unit=self.output_unit,
             time_unit=self.time_unit,
+            more_inputs=dict(zip(self.more_input_names, more, strict=True)),
+            more_input_units=dict(
+                zip(self.more_input_names, self.more_input_units, strict=True)
+            ),
+        )
+
+    def _rows(self, keep) -> "Recording":
+        """The samples `keep` (a mask or slice) as a new recording."""
+        return self._replace(
+            self.t[keep], self.u[keep], self.y[keep], self.more_inputs[:, keep]
         )
 
     def input_path(
         self, *, interpolation: AbstractInterpolation | None = None
     ) -> InputPath:
-        """The input as an `InputPath` on the uniform grid t[0] + k*dt."""
-        return InputPath(self.t[0], self.dt, self.u, interpolation=interpolation)
+        """The input as an `InputPath` on the uniform grid t[0] + k*dt (the further
+        inputs as its `channels`)."""
+        channels = self.more_inputs if self.more_input_names else None
+        return InputPath(
+            self.t[0],
+            self.dt,
+            self.u,
+            interpolation=interpolation,
+            channels=channels,
+        )
 
     def with_output(self, y: Float[ArrayLike, " n"]) -> "Recording":
         """A copy with the output replaced by `y` (e.g. a simulated output)."""
@@ -289,9 +377,25 @@ class Recording(eqx.Module):
         if not recordings or not all(isinstance(r, Recording) for r in recordings):
             raise TypeError("Recording.join: pass a non-empty list of Recordings.")
         first = recordings[0]
-        expected = (first.input_unit, first.output_unit, first.time_unit)
+        expected = (
+            first.input_unit,
+            first.output_unit,
+            first.time_unit,
+            *first.more_input_units,
+        )
         for other in recordings[1:]:
-            units = (other.input_unit, other.output_unit, other.time_unit)
+            if other.more_input_names != first.more_input_names:
+                raise RecordingError(
+                    f"Recording.join: {other.name!r} has inputs {other.input_names}, "
+                    f"{first.name!r} has {first.input_names}; recordings read together "
+                    "need the same further inputs."
+                )
+            units = (
+                other.input_unit,
+                other.output_unit,
+                other.time_unit,
+                *other.more_input_units,
+            )
             if units != expected:
                 raise RecordingError(
                     f"Recording.join: {other.name!r} has units (input, output, time) "
@@ -322,6 +426,13 @@ class Recording(eqx.Module):
             input_unit=first.input_unit,
             output_unit=first.output_unit,
             time_unit=first.time_unit,
+            more_inputs={
+                key: np.concatenate([r.more_input(key) for r in recordings])
+                for key in first.more_input_names
+            },
+            more_input_units=dict(
+                zip(first.more_input_names, first.more_input_units, strict=True)
+            ),
         )
 
     def segment(self, start: float | None, stop: float | None) -> "Recording":
@@ -343,7 +454,7 @@ class Recording(eqx.Module):
                 f"sample(s) of a record spanning [{self.t[0]:.6g}, {self.t[-1]:.6g}] "
                 f"{self.time_unit}; pick a window with at least 2 samples."
             )
-        return self._replace(self.t[keep], self.u[keep], self.y[keep])
+        return self._rows(keep)
 
     def split(self, fraction: float) -> tuple["Recording", "Recording"]:
         """Split at `fraction` (0 < fraction < 1) of the samples into (first,
@@ -361,9 +472,7 @@ class Recording(eqx.Module):
                 f"{k} and {n - k} samples; each part needs at least 2, so pick a "
                 "fraction nearer 0.5."
             )
-        first = self._replace(self.t[:k], self.u[:k], self.y[:k])
-        second = self._replace(self.t[k:], self.u[k:], self.y[k:])
-        return first, second
+        return self._rows(slice(None, k)), self._rows(slice(k, None))
 
     def resample(self, dt: float) -> "Recording":
         """Linear interpolation onto the grid t[0] + k*dt that fits in the record.
@@ -392,7 +501,10 @@ class Recording(eqx.Module):
         grid = self.t[0] + dt * np.arange(count)
         grid = np.minimum(grid, self.t[-1])
         return self._replace(
-            grid, np.interp(grid, self.t, self.u), np.interp(grid, self.t, self.y)
+            grid,
+            np.interp(grid, self.t, self.u),
+            np.interp(grid, self.t, self.y),
+            [np.interp(grid, self.t, row) for row in self.more_inputs],
         )
 
     def reversals(self, *, tolerance: float = 0.01) -> Int[np.ndarray, " r"]:
@@ -465,7 +577,7 @@ class Recording(eqx.Module):
         path: str | os.PathLike,
         *,
         time: str | int | None = "t",
-        input: str | int | None = None,
+        input: str | int | Sequence[str | int] | None = None,
         output: str | int | None = None,
         header: bool | None = None,
         resample: bool = False,
@@ -483,6 +595,10 @@ class Recording(eqx.Module):
         non-uniform time axis onto a uniform grid with the mean step. `name` defaults
         to the name stored by `save`, else the stem.
 
+        `input` may list several columns (`input=["u", "v"]`): the first is `u`, the
+        others become `more_inputs` under their column names. None reads the inputs
+        `save` wrote (all of them), else "u".
+
         `time=None` reads a quasi-static test without a time column: a text file of
         exactly two equally long columns, displacement and force (default `input=0`,
         `output=1`, no header unless `header=True`), built with `quasi_static` (pseudo
@@ -496,36 +612,70 @@ class Recording(eqx.Module):
             )
         suffix = path.suffix.lower()
         if time is None:
+            if input is not None and not isinstance(input, str | int):
+                raise RecordingError(
+                    "Recording.load: time=None reads two columns (displacement, "
+                    f"force); pick one input column, got input={input!r}."
+                )
             return cls._load_quasi_static(path, input, output, bool(header), name)
-        input = "u" if input is None else input
+        if isinstance(input, str | int) or input is None:
+            inputs: list[str | int] | None = None if input is None else [input]
+        else:
+            inputs = list(input)
+            if not inputs:
+                raise RecordingError(
+                    "Recording.load: input=[] selects no input; name at least one "
+                    "column."
+                )
         output = "y" if output is None else output
         header = True if header is None else header
-        if suffix in (".csv", ".txt"):
-            columns, meta = _read_text(path, (time, input, output), header)
-        elif suffix == ".npz":
-            columns, meta = _read_arrays(path, (time, input, output), "npz")
-        elif suffix == ".mat":
-            columns, meta = _read_arrays(path, (time, input, output), "mat")
-        else:
+        if suffix not in (".csv", ".txt", ".npz", ".mat"):
             raise RecordingError(
                 f"Recording.load: unknown file type {path.suffix!r} of {str(path)!r}; "
                 "use .csv, .txt, .npz or .mat."
             )
-        labels = [
-            s if isinstance(s, str) else default
-            for s, default in ((input, "u"), (output, "y"))
+        if inputs is None:
+            inputs = list(_saved_inputs(path, suffix)) or ["u"]
+        selectors = (time, *inputs, output)
+        if suffix in (".csv", ".txt"):
+            columns, units = _read_text(path, selectors, header)
+            stored: dict[str, str] = {}
+        else:
+            columns, units, stored = _read_arrays(path, selectors, suffix[1:])
+        # Columns picked by index take the default names ("u", "u2", ..., "y").
+        defaults = ("u", *(f"u{i + 1}" for i in range(1, len(inputs))), "y")
+        names = [
+            sel if isinstance(sel, str) else default
+            for sel, default in zip((*inputs, output), defaults, strict=True)
         ]
-        meta_name = meta.pop("name", None)
         if name is None:
-            name = meta_name or path.stem
+            name = stored.get("name") or path.stem
+        more_units = {
+            key: unit
+            for key, unit in zip(names[1:-1], units[2:-1], strict=True)
+            if unit is not None
+        }
+        options = {
+            key: unit
+            for key, unit in (
+                ("time_unit", units[0]),
+                ("input_unit", units[1]),
+                ("output_unit", units[-1]),
+            )
+            if unit is not None
+        }
         try:
             return cls(
-                *columns,
+                columns[0],
+                columns[1],
+                columns[-1],
                 name=name,
-                input_name=meta.pop("input_name", labels[0]),
-                output_name=meta.pop("output_name", labels[1]),
+                input_name=names[0],
+                output_name=names[-1],
                 resample=resample,
-                **meta,
+                more_inputs=dict(zip(names[1:-1], columns[2:-1], strict=True)),
+                more_input_units=more_units,
+                **options,
             )
         except RecordingError as error:
             raise RecordingError(f"{path}: {error}") from None
@@ -546,7 +696,18 @@ class Recording(eqx.Module):
                 "Recording.quasi_static(displacement, force)."
             )
         selectors = (0 if input is None else input, 1 if output is None else output)
-        columns, meta = _read_text(path, selectors, header, two_columns=True)
+        columns, units = _read_text(path, selectors, header, two_columns=True)
+        meta = {
+            f"{role}_{kind}": value
+            for role, selector, unit in zip(
+                ("input", "output"), selectors, units, strict=True
+            )
+            for kind, value in (
+                ("unit", unit),
+                ("name", selector if isinstance(selector, str) else None),
+            )
+            if value is not None
+        }
         try:
             return cls.quasi_static(
                 *columns,
@@ -559,6 +720,8 @@ class Recording(eqx.Module):
     def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> None:
         """Write to `.csv` (header "t,<input_name>,<output_name>", units in
         brackets), `.npz` or `.mat` (arrays under those names plus the metadata).
+        Further inputs are written after `u` (a CSV then starts with the comment line
+        "# jaxhyst inputs: u, v", which `load` reads them back by).
 
         Refuses to replace an existing file unless `overwrite=True`.
         """
@@ -570,29 +733,40 @@ class Recording(eqx.Module):
                 f"{str(path)!r}; use .csv, .npz or .mat."
             )
         refuse_existing(path, overwrite=overwrite, refusal=Refusal("Recording.save"))
-        names = ("t", self.input_name, self.output_name)
-        if len(set(names)) < 3 or any(n.startswith(_META_PREFIX) for n in names):
+        names = ("t", *self.input_names, self.output_name)
+        values = (self.t, self.u, *self.more_inputs, self.y)
+        if len(set(names)) < len(names) or any(
+            n.startswith(_META_PREFIX) for n in names
+        ):
             raise RecordingError(
                 f"Recording.save: column names {names} must be distinct and must not "
                 f"start with {_META_PREFIX!r}; rename the input/output first."
             )
         if suffix == ".csv":
-            units = (self.time_unit, self.input_unit, self.output_unit)
+            units = (
+                self.time_unit,
+                self.input_unit,
+                *self.more_input_units,
+                self.output_unit,
+            )
             head = [f"{n} [{u}]" if u else n for n, u in zip(names, units, strict=True)]
             with open(path, "w", newline="") as file:
+                if self.more_input_names:
+                    file.write(_INPUTS_MARK + ", ".join(self.input_names) + "\n")
                 csv.writer(file).writerow(head)
-                np.savetxt(
-                    file,
-                    np.stack([self.t, self.u, self.y], axis=1),
-                    delimiter=",",
-                    fmt="%.17g",
-                )
+                np.savetxt(file, np.stack(values, axis=1), delimiter=",", fmt="%.17g")
             return
-        arrays = dict(zip(names, (self.t, self.u, self.y), strict=True))
-        meta = {
+        arrays = dict(zip(names, values, strict=True))
+        meta: dict[str, Any] = {
             _META_PREFIX + key: getattr(self, key)
             for key in ("name", "input_unit", "output_unit", "time_unit")
         }
+        if self.more_input_names:
+            meta[_META_PREFIX + "inputs"] = list(self.input_names)
+            meta[_META_PREFIX + "input_units"] = [
+                self.input_unit,
+                *self.more_input_units,
+            ]
         if suffix == ".npz":
             if {"file", "allow_pickle"} & set(names):
                 raise RecordingError(
@@ -635,9 +809,10 @@ def _read_text(
     header: bool,
     *,
     two_columns: bool = False,
-) -> tuple[list[np.ndarray], dict[str, str]]:
-    """The selected columns (for (time, input, output), or for (input, output) when
-    `two_columns`, which also requires exactly two equally long columns)."""
+) -> tuple[list[np.ndarray], list[str | None]]:
+    """The selected columns (time, the inputs, output; or input, output when
+    `two_columns`, which also requires exactly two equally long columns), and the
+    unit each one's header names (None where it names none)."""
     with open(path, encoding="utf-8-sig", newline="") as file:
         lines = [
             (number, line)
@@ -666,17 +841,13 @@ def _read_text(
     width = len(names) if names is not None else len(rows[0])
     if two_columns:
         _check_two_columns(path, rows, numbers, width)
-    roles = ("time", "input", "output")[-len(selectors) :]
-
-    meta: dict[str, str] = {}
+    roles = _roles(len(selectors), two_columns)
+    units: list[str | None] = []
     indices = []
     for role, selector in zip(roles, selectors, strict=True):
         index, unit = _column_index(path, role, selector, names, width)
         indices.append(index)
-        if unit is not None:
-            meta[role + "_unit"] = unit
-        if isinstance(selector, str) and role != "time":
-            meta[role + "_name"] = selector
+        units.append(unit)
 
     labels = [
         f"column {s!r}" + (f" (index {i})" if isinstance(s, str) else "")
@@ -699,7 +870,33 @@ def _read_text(
                     f"Recording.load: {str(path)!r} line {number}, {label} {what}; "
                     "fix or drop that line, or check the column selection."
                 ) from None
-    return columns, meta
+    return columns, units
+
+
+def _roles(count: int, two_columns: bool = False) -> list[str]:
+    """What each selected column is, for messages: time, input(s), output."""
+    if two_columns:
+        return ["input", "output"]
+    return ["time", *(["input"] * (count - 2)), "output"]
+
+
+# `save` marks a CSV of several inputs with this comment line, so that `load` reads
+# them all back.
+_INPUTS_MARK = "# jaxhyst inputs: "
+
+
+def _saved_inputs(path: Path, suffix: str) -> tuple[str, ...]:
+    """The inputs `save` wrote to `path` (empty if it did not mark them)."""
+    if suffix in (".csv", ".txt"):
+        with open(path, encoding="utf-8-sig") as file:
+            first = file.readline().strip()
+        if first.startswith(_INPUTS_MARK):
+            return tuple(n.strip() for n in first[len(_INPUTS_MARK) :].split(","))
+        return ()
+    stored = _stored_arrays(path, suffix[1:]).get(_META_PREFIX + "inputs")
+    if stored is None or np.asarray(stored).dtype.kind != "U":
+        return ()
+    return tuple(str(n).strip() for n in np.asarray(stored).ravel())
 
 
 def _check_two_columns(
@@ -790,9 +987,8 @@ def _is_number(cell: str) -> bool:
     return True
 
 
-def _read_arrays(
-    path: Path, selectors: Sequence[str | int], kind: str
-) -> tuple[list[np.ndarray], dict[str, str]]:
+def _stored_arrays(path: Path, kind: str) -> dict[str, Any]:
+    """Every array of a `.npz` (`kind` "npz") or `.mat` file, by name."""
     if kind == "npz":
         try:
             with np.load(path, allow_pickle=False) as data:
@@ -825,14 +1021,42 @@ def _read_arrays(
         raise RecordingError(
             f"Recording.load: {str(path)!r} is empty; it holds no arrays."
         )
-    meta = {}
-    for key in ("name", "input_unit", "output_unit", "time_unit"):
-        value = arrays.pop(_META_PREFIX + key, None)
-        if value is not None and np.asarray(value).dtype.kind == "U":
-            value = np.asarray(value).ravel()
-            meta[key] = str(value[0]) if value.size else ""
+    return arrays
+
+
+def _text(value: Any) -> list[str] | None:
+    """A stored string (array) as a list of strings, None if it is not text."""
+    if value is None or np.asarray(value).dtype.kind != "U":
+        return None
+    return [str(v).strip() for v in np.asarray(value).ravel()]
+
+
+def _read_arrays(
+    path: Path, selectors: Sequence[str | int], kind: str
+) -> tuple[list[np.ndarray], list[str | None], dict[str, str]]:
+    """The selected arrays (time, the inputs, output), the unit stored for each (None
+    where none is), and the stored recording name (key "name", if any)."""
+    arrays = _stored_arrays(path, kind)
+    meta = {
+        key: _text(arrays.pop(_META_PREFIX + key, None))
+        for key in (
+            "name",
+            "input_unit",
+            "output_unit",
+            "time_unit",
+            "inputs",
+            "input_units",
+        )
+    }
+    # Units as `save` stored them: by input name for the inputs.
+    input_units = dict(zip(meta["inputs"] or (), meta["input_units"] or ()))
+    first_input = (meta["inputs"] or [None])[0]
+    if first_input is not None and meta["input_unit"]:
+        input_units.setdefault(first_input, meta["input_unit"][0])
+    roles = _roles(len(selectors))
+    units: list[str | None] = []
     columns = []
-    for role, selector in zip(("time", "input", "output"), selectors, strict=True):
+    for role, selector in zip(roles, selectors, strict=True):
         if not isinstance(selector, str):
             raise RecordingError(
                 f"Recording.load: select {kind} arrays by key name, got "
@@ -856,6 +1080,13 @@ def _read_arrays(
                 f"{value.shape}; pass a single channel of shape (N,), (1, N) or (N, 1)."
             )
         columns.append(value.ravel())
-        if role != "time":
-            meta[role + "_name"] = selector
-    return columns, meta
+        if role == "time":
+            units.append((meta["time_unit"] or [None])[0])
+        elif role == "output":
+            units.append((meta["output_unit"] or [None])[0])
+        elif meta["inputs"] is None and selector == selectors[1]:
+            units.append((meta["input_unit"] or [None])[0])
+        else:
+            units.append(input_units.get(selector))
+    stored = {"name": meta["name"][0]} if meta["name"] else {}
+    return columns, units, stored

@@ -260,6 +260,15 @@ def _prepare(owner, model, inputs, solver, initial_state):
             f"{owner}: solver must be RK4(...) or DiffraxSolver(...), got "
             f"{type(solver).__name__}."
         )
+    needed = len(model.input_names)
+    if inputs.num_inputs < needed:
+        raise ValueError(
+            f"{owner}: {type(model).__name__} reads {needed} inputs "
+            f"({', '.join(model.input_names)}), the input path carries "
+            f"{inputs.num_inputs}; build it with InputPath(..., channels=...) or from a "
+            "Recording with more inputs (Recording(..., more_inputs=...), --input "
+            "repeated on the command line)."
+        )
     dtype = inputs.values.dtype
     model = model.astype(dtype)
     if initial_state is None:

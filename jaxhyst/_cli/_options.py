@@ -83,12 +83,20 @@ def add_recording_options(parser, *, several: bool = False) -> None:
     for option, default in (("time", "t"), ("input", "u"), ("output", "y")):
         index = ("t", "u", "y").index(default)
         no_time = "" if option == "time" else f", with --no-time: {index - 1}"
+        several = (
+            "; repeat it for a system with several inputs (an MR damper: --input u "
+            "--input v; the first is the mechanical one). Without it, the inputs a "
+            "jaxhyst-saved file names, else u"
+            if option == "input"
+            else ""
+        )
         group.add_argument(
             f"--{option}",
             default=None,
+            action="append" if option == "input" else "store",
             metavar="COLUMN",
             help=f"the {option} column: header name (default: {default}) or 0-based "
-            f"index (default with --no-header: {index}{no_time}).",
+            f"index (default with --no-header: {index}{no_time}){several}.",
         )
     group.add_argument(
         "--no-header",
@@ -213,18 +221,31 @@ def _read_recording(args: argparse.Namespace, path: str) -> Recording:
                 "has none to pick; drop --time, or drop --no-time if the file has "
                 "one."
             )
+        if args.input is not None and len(args.input) > 1:
+            raise ValueError(
+                f"--input given {len(args.input)} times with --no-time: a file "
+                "without a time column holds one input (displacement) and the output "
+                "(force); pass --input once."
+            )
         return Recording.load(
             path,
             time=None,
-            input=_quasi_static_column(args.input, 0, "input"),
+            input=_quasi_static_column(
+                None if args.input is None else args.input[0], 0, "input"
+            ),
             output=_quasi_static_column(args.output, 1, "output"),
             header=False,
         )
     header = not args.no_header
+    if args.input is None:
+        # A header: the inputs the file names (Recording.load's default).
+        inputs = None if header else [column(None, "u", 1, header, "input")]
+    else:
+        inputs = [column(text, "u", 1, header, "input") for text in args.input]
     return Recording.load(
         path,
         time=column(args.time, "t", 0, header, "time"),
-        input=column(args.input, "u", 1, header, "input"),
+        input=inputs,
         output=column(args.output, "y", 2, header, "output"),
         header=header,
     )

@@ -246,9 +246,31 @@ def _recordings(recording: Recording | Sequence[Recording]) -> list[Recording]:
     if len(dts) > 1:
         raise ValueError(
             f"identify: the recordings have different sample intervals {sorted(dts)}; "
-            "resample them to one rate (Recording.resampled) before a joint fit."
+            "resample them to one rate (Recording.resample) before a joint fit."
+        )
+    inputs = {r.input_names[1:] for r in records}
+    if len(inputs) > 1:
+        raise ValueError(
+            f"identify: the recordings carry different further inputs {sorted(inputs)};"
+            " a joint fit needs the same inputs in every recording."
         )
     return records
+
+
+def check_inputs(
+    model: AbstractHysteresisModel, records: Sequence[Recording], owner: str
+) -> None:
+    """Raise unless every recording carries the inputs `model` reads."""
+    needed = model.input_names
+    for r in records:
+        if r.num_inputs < len(needed):
+            raise ValueError(
+                f"{owner}: {type(model).__name__} reads {len(needed)} inputs "
+                f"({', '.join(needed)}), recording {r.name!r} carries "
+                f"{r.num_inputs} ({', '.join(r.input_names)}); load it with every "
+                "input (Recording.load(path, input=[...]), or --input repeated on "
+                "the command line: --input u --input v)."
+            )
 
 
 def joint_scales(recordings: Sequence[Recording]) -> DataScales:
@@ -263,6 +285,10 @@ def joint_scales(recordings: Sequence[Recording]) -> DataScales:
         output_rms=float(np.sqrt(np.mean(y**2))),
         duration=max(r.duration for r in recordings),
         sample_rate=recordings[0].sample_rate,
+        more_input_peaks=tuple(
+            max(float(np.max(np.abs(r.more_inputs[i]))) for r in recordings)
+            for i in range(recordings[0].num_inputs - 1)
+        ),
     )
 
 
@@ -341,6 +367,7 @@ def identify(
       status for you to inspect.
     """
     records = _recordings(recording)
+    check_inputs(model, records, "identify")
     if swarm is None and start is None:
         raise ValueError("identify: with swarm=None pass start=<model> to polish from.")
     if swarm_stride is not None and (

@@ -126,10 +126,18 @@ def stack_inputs(paths: list[InputPath]) -> InputPath:
     the end to the longest by holding their last value (mask those samples out)."""
     length = max(path.num_samples for path in paths)
 
+    def held(values):
+        hold = jnp.repeat(values[..., -1:], length - values.shape[-1], axis=-1)
+        return jnp.concatenate([values, hold], axis=-1)
+
     def padded(path: InputPath) -> InputPath:
-        values = jnp.asarray(path.values)
-        hold = jnp.full((length - values.shape[-1],), values[-1], values.dtype)
-        return eqx.tree_at(lambda i: i.values, path, jnp.concatenate([values, hold]))
+        if path.channels is None:
+            return eqx.tree_at(lambda i: i.values, path, held(path.values))
+        return eqx.tree_at(
+            lambda i: (i.values, i.channels),
+            path,
+            (held(path.values), held(path.channels)),
+        )
 
     return jax.tree.map(lambda *leaves: jnp.stack(leaves), *map(padded, paths))
 
@@ -175,6 +183,10 @@ def decimated(problem: Problem, stride: int) -> Problem:
         inputs,
         (inputs.dt * stride, inputs.values[..., ::stride]),
     )
+    if inputs.channels is not None:
+        coarse = eqx.tree_at(
+            lambda i: i.channels, coarse, inputs.channels[..., ::stride]
+        )
     weights = None if problem.weights is None else problem.weights[..., ::stride]
     return eqx.tree_at(
         lambda p: (p.inputs, p.measured, p.weights),

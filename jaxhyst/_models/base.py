@@ -46,8 +46,10 @@ SampleUpdate = Callable[[Array, Array, Array], Array]
 
 class DataScales(eqx.Module):
     """The scales of a record that default search bounds are set from: peaks
-    (max|u|, max|y|), rms values, duration and sample rate. All must be positive and
-    finite. Build one from a recording with `DataScales.of(recording)`."""
+    (max|u|, max|y|), rms values, duration and sample rate, all positive and finite,
+    and the peak of each further input (`more_input_peaks`, e.g. an MR damper's
+    command voltage; empty for one input). Build one from a recording with
+    `DataScales.of(recording)`."""
 
     input_peak: float = eqx.field(converter=float)
     output_peak: float = eqx.field(converter=float)
@@ -55,6 +57,9 @@ class DataScales(eqx.Module):
     output_rms: float = eqx.field(converter=float)
     duration: float = eqx.field(converter=float)
     sample_rate: float = eqx.field(converter=float)
+    more_input_peaks: tuple[float, ...] = eqx.field(
+        converter=lambda peaks: tuple(float(p) for p in peaks), default=()
+    )
 
     def __check_init__(self):
         for name, label in (
@@ -92,6 +97,7 @@ class DataScales(eqx.Module):
                 f".sample_rate), got {type(recording).__name__} without {missing}."
             )
         u, y = np.asarray(recording.u), np.asarray(recording.y)
+        more = np.asarray(getattr(recording, "more_inputs", np.zeros((0, u.size))))
         return cls(
             input_peak=float(np.max(np.abs(u))),
             output_peak=float(np.max(np.abs(y))),
@@ -99,6 +105,7 @@ class DataScales(eqx.Module):
             output_rms=float(np.sqrt(np.mean(y**2))),
             duration=float(recording.duration),
             sample_rate=float(recording.sample_rate),
+            more_input_peaks=tuple(float(np.max(np.abs(row))) for row in more),
         )
 
 
@@ -156,6 +163,9 @@ class AbstractHysteresisModel(eqx.Module):
         smoothing: eqx.AbstractVar[AbstractSmoothing]
     parameter_names: ClassVar[tuple[str, ...]]
     state_size: ClassVar[int]
+    # The inputs the model reads, in the order an `InputPath` carries them (`values`,
+    # then each row of `channels`). Models of more than one input override it.
+    input_names: ClassVar[tuple[str, ...]] = ("u",)
 
     def drive(
         self,
