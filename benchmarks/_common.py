@@ -12,7 +12,6 @@ times its child's imports. The functions that need them import them when called.
 
 import argparse
 import importlib.metadata
-import json
 import math
 import os
 import platform
@@ -191,29 +190,21 @@ def require_matplotlib(
 
 
 def jsonable(value):
-    """Strict JSON of results: arrays and NumPy/JAX scalars -> lists and numbers,
-    tuples -> lists, non-finite numbers -> None."""
-    if value is None or isinstance(value, str | bool | int):
-        return value
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if hasattr(value, "tolist"):  # numpy and JAX arrays and scalars
-        return jsonable(value.tolist())
-    if not isinstance(value, float) and hasattr(value, "__float__"):
-        value = float(value)
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+    """Strict JSON of results (arrays and NumPy/JAX scalars -> lists and numbers,
+    tuples -> lists, non-finite numbers -> None): the package's one serialiser."""
+    from jaxhyst._serialise import jsonable as strict
+
+    return strict(value)
 
 
-def write_json(data, path, *, indent: int = 2) -> Path:
-    """Write `jsonable(data)` to `path` (its folder created) and say so on stdout."""
+def write_json(data, path) -> Path:
+    """Write `data` as the package writes JSON (strict, indented) to `path` (its
+    folder created) and say so on stdout."""
+    from jaxhyst._serialise import dumps
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(jsonable(data), indent=indent, allow_nan=False)
-    path.write_text(text + "\n")
+    path.write_text(dumps(data) + "\n")
     print(f"wrote {path}")
     return path
 

@@ -459,7 +459,7 @@ def main(argv=None):
             "paper": paper,
             "command": " ".join([os.path.basename(sys.executable), *sys.argv]),
         }
-        common.write_json(result, args.json, indent=1)
+        common.write_json(result, args.json)
     return 0
 
 

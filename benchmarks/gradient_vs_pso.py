@@ -646,7 +646,7 @@ def main(argv=None):
             "verdict": sentence,
             "runs": runs,
         }
-        common.write_json(result, args.json, indent=1)
+        common.write_json(result, args.json)
     return 0
 
 

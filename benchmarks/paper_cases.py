@@ -1033,7 +1033,7 @@ def main(argv=None):
             + f"  (true phi {args.phi:g}, eps {args.eps:g})"
         )
     if args.json:
-        common.write_json(result, args.json, indent=1)
+        common.write_json(result, args.json)
     if plots:
         for name in PLOT_NAMES:
             if (plots / name).exists():

@@ -853,7 +853,7 @@ def main(argv=None):
     }
     print_table(result)
     if args.json:
-        common.write_json(result, args.json, indent=1)
+        common.write_json(result, args.json)
     return 0
 
 
