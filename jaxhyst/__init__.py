@@ -131,6 +131,11 @@ from ._models.bouc_wen import (
     PiezoStage as PiezoStage,
     ShiftedDrive as ShiftedDrive,
 )
+from ._models.damper import (
+    BoucWenDamper as BoucWenDamper,
+    DamperDrive as DamperDrive,
+    SpencerDamper as SpencerDamper,
+)
 from ._models.extended import ExtendedPiezo as ExtendedPiezo
 from ._models.oscillator import HystereticOscillator as HystereticOscillator
 from ._models.structural import StructuralBoucWen as StructuralBoucWen
@@ -140,7 +145,32 @@ from ._opensees import (
     opensees_material as opensees_material,
 )
 from ._params import ParameterSpace as ParameterSpace
+from ._plots import (
+    plot_error_trend as plot_error_trend,
+    plot_loop as plot_loop,
+    plot_loop_opening as plot_loop_opening,
+    plot_residual_scatter as plot_residual_scatter,
+    plot_residual_time as plot_residual_time,
+    plot_spectrum as plot_spectrum,
+    plot_time_history as plot_time_history,
+    require_matplotlib as require_matplotlib,
+    save_figure as save_figure,
+)
 from ._recording import Recording as Recording, RecordingError as RecordingError
+from ._report import (
+    COMPENSATION_FIGURES as COMPENSATION_FIGURES,
+    DIAGNOSIS_FIGURES as DIAGNOSIS_FIGURES,
+    FIT_FIGURES as FIT_FIGURES,
+    diagnosis_html as diagnosis_html,
+    diagnosis_markdown as diagnosis_markdown,
+    diagnosis_summary as diagnosis_summary,
+    fit_summary as fit_summary,
+    write_compensation_report as write_compensation_report,
+    write_diagnosis_figures as write_diagnosis_figures,
+    write_diagnosis_html as write_diagnosis_html,
+    write_diagnosis_report as write_diagnosis_report,
+    write_fit_figures as write_fit_figures,
+)
 from ._signals import (
     AbstractSignal as AbstractSignal,
     Chirp as Chirp,

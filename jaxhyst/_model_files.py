@@ -42,6 +42,7 @@ import numpy as np
 from ._files import Refusal, refuse_folder
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
+from ._models.damper import BoucWenDamper, SpencerDamper
 from ._models.extended import ExtendedPiezo
 from ._models.oscillator import HystereticOscillator
 from ._models.structural import StructuralBoucWen
@@ -66,6 +67,8 @@ MODEL_CLASSES: dict[str, type[AbstractHysteresisModel]] = {
         HystereticOscillator,
         StructuralBoucWen,
         ExtendedPiezo,
+        BoucWenDamper,
+        SpencerDamper,
     )
 }
 SMOOTHING_RULES: dict[str, type[AbstractSmoothing]] = {

@@ -1,23 +1,40 @@
-"""Paper-style figures: hysteresis loops, time histories and absolute-error trends.
+"""Paper-style plots: hysteresis loops, time histories, absolute-error trends and
+residual analyses, each drawn on matplotlib Axes that the caller may compose.
 
 Matplotlib is an optional dependency (`pip install 'jaxhyst[plot]'`) and is imported
-only when a figure is drawn. Figures are built on `matplotlib.figure.Figure` with the
-Agg canvas, never through `pyplot`, so plotting changes no global matplotlib state
-(backend, current figure) and works headless. Every function writes one PNG and
-returns its path; like `Recording.save`, it refuses to replace an existing file
+only when a figure is made or saved. Every `plot_*` draws on the Axes it is given
+(`ax=`, or `axes=` for the plots of several stacked panels) and returns them; given
+none, it makes a figure of its own, built on `matplotlib.figure.Figure` with the Agg
+canvas, never through `pyplot`, so plotting changes no global matplotlib state
+(backend, current figure) and works headless. Nothing here writes a file but
+`save_figure`, which, like `Recording.save`, refuses to replace an existing file
 unless `overwrite=True`.
 
 Curves are passed as `{label: values}` dictionaries, drawn in order: the first solid
 (e.g. the measurement), the rest dashed (e.g. models), so overlaid curves stay visible.
+
+    figure = matplotlib.figure.Figure(figsize=(10, 4), layout="constrained")
+    left, right = figure.subplots(1, 2)
+    jh.plot_loop(u, {"measured": y, "model": yhat}, ax=left)
+    jh.plot_error_trend(t, {"model": abs(y - yhat)}, ax=right)
+    jh.save_figure(figure, "fit.png")
 """
 
 import os
-from collections.abc import Mapping
+import sys
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from jaxtyping import ArrayLike
+
+from ._files import Refusal, refuse_existing, refuse_folder
+
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
 _INSTALL_HINT = "install the plot extra: pip install 'jaxhyst[plot]'"
@@ -44,30 +61,90 @@ def _new_figure_class():
     return Figure, FigureCanvasAgg
 
 
-def _figure(nrows: int = 1, *, height: float = 4.5, sharex: bool = False):
+def new_figure(
+    rows: int = 1, *, height: float = 4.5, sharex: bool = False
+) -> "tuple[Figure, list[Axes]]":
+    """A 7-inch-wide figure of `rows` stacked Axes on the Agg canvas (not through
+    `pyplot`), with constrained layout: the figure every `plot_*` makes when it is
+    given no Axes. Returns (figure, [Axes, ...])."""
     Figure, FigureCanvasAgg = _new_figure_class()
     figure = Figure(figsize=(7.0, height), layout="constrained")
     FigureCanvasAgg(figure)
-    axes = figure.subplots(nrows, 1, sharex=sharex, squeeze=False)[:, 0]
+    axes = figure.subplots(rows, 1, sharex=sharex, squeeze=False)[:, 0]
     return figure, list(axes)
 
 
-def _target(path: str | os.PathLike, overwrite: bool, owner: str) -> Path:
+def _panels(
+    axes: "Sequence[Axes] | None", count: int, owner: str, what: str, **figure: Any
+) -> "list[Axes]":
+    """The `count` Axes to draw on: `axes` (checked), or a new figure's."""
+    if axes is None:
+        return new_figure(count, **figure)[1]
+    panels = list(np.asarray(axes, dtype=object).ravel())
+    if len(panels) != count:
+        raise ValueError(
+            f"{owner}: axes holds {len(panels)} Axes but this plot draws {count} "
+            f"({what}); pass {count} Axes, or None for a new figure."
+        )
+    return panels
+
+
+def _axis(ax: "Axes | None", **figure: Any) -> "Axes":
+    return new_figure(**figure)[1][0] if ax is None else ax
+
+
+def _figure_of(figure_or_axes: Any) -> "Figure":
+    """The figure to save: `figure_or_axes` itself, or the (root) figure of an Axes
+    or of the first of a sequence of Axes."""
+    candidate: Any = figure_or_axes
+    if not hasattr(candidate, "savefig") and not hasattr(candidate, "figure"):
+        panels = np.asarray(candidate, dtype=object).ravel()
+        candidate = panels[0] if panels.size else None
+    for _ in range(8):  # Axes -> SubFigure -> ... -> Figure
+        if candidate is None or hasattr(candidate, "savefig"):
+            break
+        candidate = getattr(candidate, "figure", None)
+    if not hasattr(candidate, "savefig"):
+        raise TypeError(
+            "save_figure: pass a matplotlib Figure, an Axes or a sequence of Axes, "
+            f"got {type(figure_or_axes).__name__}."
+        )
+    return candidate
+
+
+def save_figure(
+    figure_or_axes: Any,
+    path: str | os.PathLike,
+    *,
+    overwrite: bool = False,
+    close: bool = True,
+) -> Path:
+    """Save a figure as a PNG (150 dpi) to `path` and return the path.
+
+    `figure_or_axes`: a matplotlib `Figure`, or an Axes or array of Axes (their
+    figure is saved), e.g. what a `plot_*` returned. `path` must end in `.png` and
+    its folder must exist; an existing file is replaced only with `overwrite=True`.
+    `close`: release a figure `pyplot` manages once saved (a figure made here, on
+    the Agg canvas, needs no closing).
+    """
+    owner = "save_figure"
     path = Path(path)
+    figure = _figure_of(figure_or_axes)
     if path.suffix.lower() != ".png":
         raise ValueError(
             f"{owner}: {str(path)!r} is not a .png path; pass a file name ending "
             "in .png."
         )
-    if path.exists() and not overwrite:
-        raise FileExistsError(
-            f"{owner}: {str(path)!r} already exists; pass overwrite=True "
-            "(--force on the command line) to replace it."
-        )
+    refuse_folder(path, owner=owner)
+    refuse_existing(path, overwrite=overwrite, refusal=Refusal(owner))
     if not path.parent.is_dir():
         raise FileNotFoundError(
             f"{owner}: folder {str(path.parent)!r} does not exist; create it first."
         )
+    figure.savefig(path, dpi=_DPI)
+    pyplot = sys.modules.get("matplotlib.pyplot")
+    if close and pyplot is not None:
+        pyplot.close(figure)
     return path
 
 
@@ -115,66 +192,78 @@ def _draw(
         axis.legend(loc="best", fontsize="small")
 
 
-def _save(figure, path: Path) -> Path:
-    figure.savefig(path, dpi=_DPI)
-    return path
-
-
 def plot_loop(
-    path: str | os.PathLike,
     u: ArrayLike,
     curves: Mapping[str, ArrayLike],
     *,
-    xlabel: str,
-    ylabel: str,
-    title: str,
+    xlabel: str = "input u",
+    ylabel: str = "output y",
+    title: str = "",
     scale: float = 1.0,
-    detrend: bool = False,
-    overwrite: bool = False,
-) -> Path:
-    """Hysteresis loop(s): every curve in `curves` ({label: y}) against the input `u`.
+    ax: "Axes | None" = None,
+) -> "Axes":
+    """Hysteresis loop(s): every curve in `curves` ({label: y}) against the input `u`,
+    on `ax` (None: a new figure). Returns the Axes.
 
     `scale` multiplies every y before drawing (e.g. 1e6 for metres -> micrometres);
-    put the matching unit in `ylabel`. `detrend=True` adds a second panel with every
-    curve minus one straight line, the least-squares line through the first curve,
-    which shows the loop opening when a linear part dominates (as in piezo
-    actuators). Writes a PNG to `path` and returns it.
+    put the matching unit in `ylabel`. Where a linear part dominates (as in piezo
+    actuators) the loop is thin; `plot_loop_opening` below it shows the opening.
     """
     owner = "plot_loop"
-    target = _target(path, overwrite, owner)
     x = _vector(u, "u", owner)
     lines = _curves(curves, x.shape[0], owner, scale)
-    if not detrend:
-        figure, (axis,) = _figure(height=5.0)
-        _draw(axis, x, lines)
-        axis.set_xlabel(xlabel)
-        axis.set_ylabel(ylabel)
-        axis.set_title(title)
-        return _save(figure, target)
-    figure, (axis, lower) = _figure(2, height=7.5, sharex=True)
+    axis = _axis(ax, height=5.0)
     _draw(axis, x, lines)
+    axis.set_xlabel(xlabel)
     axis.set_ylabel(ylabel)
-    axis.set_title(title)
+    if title:
+        axis.set_title(title)
+    return axis
+
+
+def plot_loop_opening(
+    u: ArrayLike,
+    curves: Mapping[str, ArrayLike],
+    *,
+    xlabel: str = "input u",
+    ylabel: str = "output y\nminus straight line",
+    title: str | None = None,
+    scale: float = 1.0,
+    ax: "Axes | None" = None,
+) -> "Axes":
+    """The loop opening: every curve in `curves` ({label: y}) minus one straight line,
+    the least-squares line through the first curve, against the input `u`, on `ax`
+    (None: a new figure). Returns the Axes.
+
+    It shows the loop opening when a linear part dominates (as in piezo actuators).
+    `title` None names the line subtracted. `scale` multiplies every y first.
+    """
+    owner = "plot_loop_opening"
+    x = _vector(u, "u", owner)
+    lines = _curves(curves, x.shape[0], owner, scale)
+    axis = _axis(ax, height=4.0)
     slope, intercept = np.polyfit(x, lines[0][1], 1)
     line = slope * x + intercept
     _draw(
-        lower,
+        axis,
         x,
         [(label, values - line) for label, values in lines],
         legend=len(lines) > 1,
     )
-    lower.set_xlabel(xlabel)
-    lower.set_ylabel(f"{ylabel}\nminus straight line")
-    lower.set_title(
-        f"loop opening: minus the line {slope:.4g} u {'-' if intercept < 0 else '+'} "
-        f"{abs(intercept):.3g} fitted to {lines[0][0] or 'the first curve'}",
-        fontsize="medium",
-    )
-    return _save(figure, target)
+    axis.set_xlabel(xlabel)
+    axis.set_ylabel(ylabel)
+    if title is None:
+        title = (
+            f"loop opening: minus the line {slope:.4g} u "
+            f"{'-' if intercept < 0 else '+'} {abs(intercept):.3g} fitted to "
+            f"{lines[0][0] or 'the first curve'}"
+        )
+    if title:
+        axis.set_title(title, fontsize="medium")
+    return axis
 
 
 def plot_time_history(
-    path: str | os.PathLike,
     t: ArrayLike,
     u: ArrayLike,
     curves: Mapping[str, ArrayLike],
@@ -184,19 +273,16 @@ def plot_time_history(
     tlabel: str = "time t [s]",
     title: str = "",
     scale: float = 1.0,
-    overwrite: bool = False,
-) -> Path:
-    """Time histories: the input `u(t)` on top, every curve in `curves` ({label: y})
-    below, on a shared time axis. `scale` multiplies every y (not u).
-
-    Writes a PNG to `path` and returns it.
-    """
+    axes: "Sequence[Axes] | None" = None,
+) -> np.ndarray:
+    """Time histories: the input `u(t)` on the first of `axes`, every curve in
+    `curves` ({label: y}) on the second (None: a new figure of the two, on a shared
+    time axis). `scale` multiplies every y (not u). Returns the two Axes."""
     owner = "plot_time_history"
-    target = _target(path, overwrite, owner)
     time = _vector(t, "t", owner)
     inputs = _vector(u, "u", owner, time.shape[0])
     lines = _curves(curves, time.shape[0], owner, scale)
-    figure, (top, bottom) = _figure(2, height=6.0, sharex=True)
+    top, bottom = _panels(axes, 2, owner, "input, output", height=6.0, sharex=True)
     top.plot(time, inputs, color="0.3", linewidth=1.3)
     top.grid(True, alpha=0.3)
     top.set_ylabel(ulabel)
@@ -205,11 +291,10 @@ def plot_time_history(
     _draw(bottom, time, lines)
     bottom.set_ylabel(ylabel)
     bottom.set_xlabel(tlabel)
-    return _save(figure, target)
+    return _array(top, bottom)
 
 
 def plot_error_trend(
-    path: str | os.PathLike,
     t: ArrayLike,
     errors: Mapping[str, ArrayLike],
     *,
@@ -218,25 +303,30 @@ def plot_error_trend(
     title: str = "Absolute error",
     scale: float = 1.0,
     log: bool = False,
-    overwrite: bool = False,
-) -> Path:
+    ax: "Axes | None" = None,
+) -> "Axes":
     """Absolute-error trend: every series in `errors` ({label: |y - yhat|}) against
-    time. `scale` multiplies every series; `log=True` uses a logarithmic y-axis.
-
-    Writes a PNG to `path` and returns it.
-    """
+    time, on `ax` (None: a new figure). `scale` multiplies every series;
+    `log=True` uses a logarithmic y-axis. Returns the Axes."""
     owner = "plot_error_trend"
-    target = _target(path, overwrite, owner)
     time = _vector(t, "t", owner)
     lines = _curves(errors, time.shape[0], owner, scale)
-    figure, (axis,) = _figure()
+    axis = _axis(ax)
     _draw(axis, time, lines)
     if log:
         axis.set_yscale("log")
     axis.set_xlabel(tlabel)
     axis.set_ylabel(ylabel)
-    axis.set_title(title)
-    return _save(figure, target)
+    if title:
+        axis.set_title(title)
+    return axis
+
+
+def _array(*axes: Any) -> np.ndarray:
+    """Axes as a one-dimensional object array, as `Figure.subplots` returns them."""
+    array = np.empty(len(axes), dtype=object)
+    array[:] = axes
+    return array
 
 
 def _binned_mean(
@@ -263,32 +353,30 @@ def _robust_limit(series: list[tuple[str, np.ndarray]]) -> float:
 
 
 def plot_residual_scatter(
-    path: str | os.PathLike,
     x: ArrayLike,
     panels: Mapping[str, ArrayLike],
     *,
     groups: Mapping[str, ArrayLike] | None = None,
-    xlabel: str,
-    ylabel: str,
-    title: str,
+    xlabel: str = "x",
+    ylabel: str = "residual y - yhat",
+    title: str = "",
     scale: float = 1.0,
     bins: int = 40,
     logx: bool = False,
-    overwrite: bool = False,
-) -> Path:
-    """Residuals against a variable `x` (input, rate, ...): one panel per entry of
-    `panels` ({title: residual}, e.g. before and after a refit), on shared axes.
+    axes: "Sequence[Axes] | None" = None,
+) -> np.ndarray:
+    """Residuals against a variable `x` (input, rate, ...): one of `axes` per entry
+    of `panels` ({title: residual}, e.g. before and after a refit; None: a new
+    figure of them, on shared axes). Returns the Axes.
 
     `groups` ({label: boolean mask}) splits the samples, e.g. into the ascending and
     descending branches; without it all samples form one group. Each group is drawn
     as faint points plus its binned mean (`bins` bins of x) as a bold line, so a
     systematic residual of a few noise sigmas stands out. `scale` multiplies the
     residuals; `logx=True` uses a logarithmic x-axis (non-positive x dropped).
-
-    Writes a PNG to `path` and returns it.
+    `title` is the figure's (its suptitle).
     """
     owner = "plot_residual_scatter"
-    target = _target(path, overwrite, owner)
     xs = _vector(x, "x", owner)
     series = _curves(panels, xs.shape[0], owner, scale)
     if groups is None:
@@ -303,9 +391,16 @@ def plot_residual_scatter(
                     f"{xs.shape}; pass one boolean per sample."
                 )
             masks.append((str(label), array))
-    figure, axes = _figure(len(series), height=2.0 + 2.6 * len(series), sharex=True)
+    drawn = _panels(
+        axes,
+        len(series),
+        owner,
+        "one per entry of panels",
+        height=2.0 + 2.6 * len(series),
+        sharex=True,
+    )
     limit = _robust_limit(series)
-    for axis, (name, values) in zip(axes, series):
+    for axis, (name, values) in zip(drawn, series):
         for index, (label, mask) in enumerate(masks):
             keep = mask & (xs > 0) if logx else mask
             if not keep.any():
@@ -340,13 +435,13 @@ def plot_residual_scatter(
         axis.legend(loc="upper right", fontsize="small")
         if logx:
             axis.set_xscale("log")
-    axes[-1].set_xlabel(xlabel)
-    figure.suptitle(title)
-    return _save(figure, target)
+    drawn[-1].set_xlabel(xlabel)
+    if title:
+        drawn[0].figure.suptitle(title)
+    return _array(*drawn)
 
 
 def plot_residual_time(
-    path: str | os.PathLike,
     t: ArrayLike,
     u: ArrayLike,
     residuals: Mapping[str, ArrayLike],
@@ -358,23 +453,28 @@ def plot_residual_time(
     title: str = "",
     scale: float = 1.0,
     window: float = 0.0,
-    overwrite: bool = False,
-) -> Path:
-    """Residuals against time under the input: `u(t)` on top, then one panel per
-    entry of `residuals` ({label: y - yhat}) with the raw residual faint and, when
-    `window` (in the units of `t`, `tunit`) spans several samples, its centred moving average
-    bold (the systematic part). `scale` multiplies the residuals; the y-axis holds
-    99.5 % of the samples.
-
-    Writes a PNG to `path` and returns it.
+    axes: "Sequence[Axes] | None" = None,
+) -> np.ndarray:
+    """Residuals against time under the input: `u(t)` on the first of `axes`, then
+    one per entry of `residuals` ({label: y - yhat}; None: a new figure of them, on
+    a shared time axis) with the raw residual faint and, when `window` (in the units
+    of `t`, `tunit`) spans several samples, its centred moving average bold (the
+    systematic part). `scale` multiplies the residuals; the y-axis holds 99.5 % of
+    the samples. Returns the Axes.
     """
     owner = "plot_residual_time"
-    target = _target(path, overwrite, owner)
     time = _vector(t, "t", owner)
     inputs = _vector(u, "u", owner, time.shape[0])
     series = _curves(residuals, time.shape[0], owner, scale)
-    figure, axes = _figure(1 + len(series), height=2.2 + 2.2 * len(series), sharex=True)
-    top = axes[0]
+    drawn = _panels(
+        axes,
+        1 + len(series),
+        owner,
+        "the input, then one per residual",
+        height=2.2 + 2.2 * len(series),
+        sharex=True,
+    )
+    top = drawn[0]
     top.plot(time, inputs, color="0.3", linewidth=1.3)
     top.grid(True, alpha=0.3)
     top.set_ylabel(ulabel)
@@ -383,7 +483,7 @@ def plot_residual_time(
     limit = _robust_limit(series)
     step = float(time[1] - time[0]) if time.shape[0] > 1 else 1.0
     width = max(1, min(int(round(window / step)), time.shape[0] // 5))
-    for index, (axis, (label, values)) in enumerate(zip(axes[1:], series)):
+    for index, (axis, (label, values)) in enumerate(zip(drawn[1:], series)):
         color = f"C{index}"
         axis.plot(time, values, color=color, linewidth=0.5, alpha=0.35)
         if width > 1:
@@ -401,8 +501,8 @@ def plot_residual_time(
         axis.set_ylim(-limit, limit)
         axis.grid(True, alpha=0.3)
         axis.set_ylabel(ylabel)
-    axes[-1].set_xlabel(tlabel)
-    return _save(figure, target)
+    drawn[-1].set_xlabel(tlabel)
+    return _array(*drawn)
 
 
 def _smoothed_spectrum(values: np.ndarray, rate: float, per_decade: int = 24):
@@ -428,26 +528,22 @@ def _smoothed_spectrum(values: np.ndarray, rate: float, per_decade: int = 24):
 
 
 def plot_spectrum(
-    path: str | os.PathLike,
     sample_rate: float,
     series: Mapping[str, ArrayLike],
     *,
     ylabel: str = "amplitude spectral density",
     title: str = "Spectrum",
     scale: float = 1.0,
-    overwrite: bool = False,
-) -> Path:
+    ax: "Axes | None" = None,
+) -> "Axes":
     """Amplitude spectral density of every entry of `series` ({label: values
-    sampled at `sample_rate` Hz}) on log-log axes: a Hann-windowed periodogram
-    averaged over log-spaced bands (24 per decade), so the lowest frequencies keep
-    full resolution and the noise floor is smooth. `scale` multiplies the values
-    first. White noise is a flat floor; structure a model leaves out shows as peaks
-    or a rise above it.
-
-    Writes a PNG to `path` and returns it.
+    sampled at `sample_rate` Hz}) on log-log axes, on `ax` (None: a new figure): a
+    Hann-windowed periodogram averaged over log-spaced bands (24 per decade), so the
+    lowest frequencies keep full resolution and the noise floor is smooth. `scale`
+    multiplies the values first. White noise is a flat floor; structure a model
+    leaves out shows as peaks or a rise above it. Returns the Axes.
     """
     owner = "plot_spectrum"
-    target = _target(path, overwrite, owner)
     rate = float(sample_rate)
     if not (np.isfinite(rate) and rate > 0):
         raise ValueError(f"{owner}: sample_rate must be positive, got {sample_rate!r}.")
@@ -457,7 +553,7 @@ def plot_spectrum(
     for label, values in series.items():
         array = scale * _vector(values, f"series {label!r}", owner)
         lines.append((str(label), *_smoothed_spectrum(array, rate)))
-    figure, (axis,) = _figure()
+    axis = _axis(ax)
     for index, (label, freqs, amplitude) in enumerate(lines):
         axis.loglog(
             freqs,
@@ -470,6 +566,7 @@ def plot_spectrum(
     axis.grid(True, which="both", alpha=0.3)
     axis.set_xlabel("frequency [Hz]")
     axis.set_ylabel(ylabel)
-    axis.set_title(title)
+    if title:
+        axis.set_title(title)
     axis.legend(loc="best", fontsize="small")
-    return _save(figure, target)
+    return axis

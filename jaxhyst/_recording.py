@@ -131,11 +131,11 @@ class Recording(eqx.Module):
                 f"among more_inputs {list(more_inputs)}; key the units by the same "
                 "names."
             )
-        names = [input_name, *more_inputs, output_name]
-        if len(set(names)) < len(names):
+        clash = set(more_inputs) & {input_name, output_name}
+        if clash:
             raise RecordingError(
-                f"{where}: the inputs and the output need distinct names, got "
-                f"{names}; rename one."
+                f"{where}: further inputs {sorted(clash)} share a name with the input "
+                f"{input_name!r} or the output {output_name!r}; rename them."
             )
         labels = (
             "time 't'",

@@ -11,8 +11,14 @@ import numpy as np
 import pytest
 
 import jaxhyst as jh
+from jaxhyst import (
+    plot_error_trend,
+    plot_loop,
+    plot_loop_opening,
+    plot_time_history,
+    save_figure,
+)
 from jaxhyst._cli import main
-from jaxhyst._plots import plot_error_trend, plot_loop, plot_time_history
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -222,46 +228,46 @@ def test_python_dash_m_runs_the_cli(tmp_path):
 # ------------------------------------------------------------------------ plots
 
 
-def test_plots_write_pngs(tmp_path):
+def test_plots_draw_and_save_pngs(tmp_path):
     t = np.linspace(0.0, 10.0, 201)
     u = 2 - 2 * np.cos(0.2 * np.pi * t)
     y = u + 0.1 * np.sin(0.2 * np.pi * t)
     curves = {"measured": y, "model": 1.01 * y}
-    paths = [
-        plot_loop(
-            tmp_path / "loop.png",
-            u,
-            curves,
-            xlabel="u [V]",
-            ylabel="y [um]",
-            title="loop",
-            detrend=True,
-        ),
-        plot_loop(tmp_path / "plain.png", u, {"": y}, xlabel="u", ylabel="y", title=""),
-        plot_time_history(tmp_path / "history.png", t, u, curves, scale=1e6),
-        plot_error_trend(tmp_path / "error.png", t, {"model": 0.01 * y}, log=True),
-    ]
-    for path, name in zip(paths, ("loop", "plain", "history", "error"), strict=True):
+    drawn = {
+        "loop": plot_loop(u, curves, xlabel="u [V]", ylabel="y [um]", title="loop"),
+        "opening": plot_loop_opening(u, curves, xlabel="u [V]"),
+        "plain": plot_loop(u, {"": y}),
+        "history": plot_time_history(t, u, curves, scale=1e6),
+        "error": plot_error_trend(t, {"model": 0.01 * y}, log=True),
+    }
+    assert len(drawn["history"]) == 2  # the input above the outputs
+    for name, axes in drawn.items():
+        path = save_figure(axes, tmp_path / f"{name}.png")
         assert path == tmp_path / f"{name}.png"
         assert path.read_bytes().startswith(PNG_SIGNATURE)
 
 
 def test_plots_check_their_inputs(tmp_path):
     u = np.arange(5.0)
-    labels = dict(xlabel="u", ylabel="y", title="")
     with pytest.raises(ValueError, match="'model' has 4 samples"):
-        plot_loop(tmp_path / "a.png", u, {"model": u[:4]}, **labels)
+        plot_loop(u, {"model": u[:4]}, xlabel="u", ylabel="y")
     with pytest.raises(ValueError, match="non-empty dict"):
-        plot_loop(tmp_path / "a.png", u, {}, **labels)
+        plot_loop(u, {})
+    one = plot_error_trend(u, {"e": u})
+    with pytest.raises(ValueError, match="pass 2 Axes"):
+        plot_time_history(u, u, {"y": u}, axes=[one])
     with pytest.raises(ValueError, match="not a .png path"):
-        plot_error_trend(tmp_path / "a.pdf", u, {"e": u})
+        save_figure(one, tmp_path / "a.pdf")
     with pytest.raises(FileNotFoundError, match="does not exist"):
-        plot_error_trend(tmp_path / "missing" / "a.png", u, {"e": u})
+        save_figure(one, tmp_path / "missing" / "a.png")
+    with pytest.raises(TypeError, match="pass a matplotlib Figure"):
+        save_figure("not a figure", tmp_path / "a.png")
     (tmp_path / "taken.png").write_bytes(b"mine")
+    history = plot_time_history(u, u, {"y": u})
     with pytest.raises(FileExistsError, match="overwrite=True"):
-        plot_time_history(tmp_path / "taken.png", u, u, {"y": u})
+        save_figure(history, tmp_path / "taken.png")
     assert (tmp_path / "taken.png").read_bytes() == b"mine"
-    plot_time_history(tmp_path / "taken.png", u, u, {"y": u}, overwrite=True)
+    save_figure(history, tmp_path / "taken.png", overwrite=True)
     assert (tmp_path / "taken.png").read_bytes().startswith(PNG_SIGNATURE)
 
 
@@ -471,6 +477,7 @@ def test_diagnose_clean_recording_writes_the_contract(diagnosed):
     assert "findings: none" in stdout and "base model: piezo, fitted on" in stdout
     assert "RMSE on all samples" in stdout
     assert f"wrote {out / 'report.md'}" in stdout
+    assert f"wrote {out / 'report.html'}" in stdout
     assert data["window"] == {"start": None, "end": None, "time_unit": "s"}
     assert "window:" not in stdout
     assert data["remainder"]["verdict"] in ("noise-like", "structured")
@@ -486,6 +493,8 @@ def test_diagnose_report_and_figures(diagnosed):
     assert "| base piezo model (diagnosis) |" in text
     assert "## Findings" in text and "## Ambiguities" in text
     assert "## What is left" in text
+    html = (out / "report.html").read_text()
+    assert html.count('src="data:image/png;base64,') == len(jh.DIAGNOSIS_FIGURES)
     for name in (
         "loop_before_after",
         "error_trend_before_after",
@@ -610,13 +619,14 @@ def test_diagnose_too_short_recording(tmp_path, capsys):
 # ------------------------------------------------------------------------- demo
 
 
-def test_demo_refuses_to_overwrite_before_computing(tmp_path, capsys):
-    (tmp_path / "report.md").write_text("mine")
+@pytest.mark.parametrize("name", ["report.md", "report.html"])
+def test_demo_refuses_to_overwrite_before_computing(name, tmp_path, capsys):
+    (tmp_path / name).write_text("mine")
     assert main(["demo", "--out", str(tmp_path)]) == 2
     line = _one_error_line(capsys, quiet=True)
-    assert "report.md" in line and "--force" in line
-    assert (tmp_path / "report.md").read_text() == "mine"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
+    assert name in line and "--force" in line
+    assert (tmp_path / name).read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
 
 
 @pytest.mark.slow
@@ -638,6 +648,8 @@ def test_demo_end_to_end(tmp_path, capsys):
         assert f"**Figure {number}.**" in text
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
     assert links and all((out / link).is_file() for link in links)
+    html = (out / "report.html").read_text()
+    assert html.count('src="data:image/png;base64,') == len(links)
     assert main(["demo", "--out", str(out)]) == 2  # no --force: refused
 
 

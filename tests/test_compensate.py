@@ -210,6 +210,7 @@ def test_compensate_command_writes_the_drive_and_report(tmp_path, capsys):
     text = report.read_text()
     assert "| RMS |" in text and "compensation_drive.png" in text
     assert (report.parent / "compensation_error.png").exists()
+    assert "data:image/png;base64," in (report.parent / "report.html").read_text()
     # Outputs are not replaced without --force; a reference beyond the limits warns.
     assert main([*argv, "--out", str(out)]) == 2
     assert "already exists" in capsys.readouterr().err

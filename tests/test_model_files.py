@@ -96,13 +96,20 @@ def _every_model() -> dict[str, jh.AbstractHysteresisModel]:
             dynamic=True,
             smoothing=jh.TanhSign(1e-3),
         ),
+        "BoucWenDamper": jh.BoucWenDamper(
+            25.0, 40.0, 0.3, 900.0, -12.0, 1.0, 150.0, 110.0, 1.6
+        ),
+        "SpencerDamper": jh.SpencerDamper.spencer_1997(
+            smoothing=jh.AlgebraicSign(1e-2)
+        ).replace(x0=14.3 + 1e-9),
     }
 
 
 def _package_model_classes() -> set[str]:
     """Every concrete model class defined in jaxhyst._models."""
     found = set()
-    for module in ("base", "bouc_wen", "extended", "oscillator", "structural"):
+    modules = ("base", "bouc_wen", "damper", "extended", "oscillator", "structural")
+    for module in modules:
         mod = importlib.import_module(f"jaxhyst._models.{module}")
         for name, obj in vars(mod).items():
             if (
@@ -124,6 +131,9 @@ def test_round_trip_is_exact(name, tmp_path):
     model = _every_model()[name]
     assert type(model).__name__ == name
     path = jh.sample(jh.paper_u1(periods=0.3), 500.0)
+    if len(model.input_names) > 1:  # an MR damper: a command of 1.5 V beside x
+        more = np.full((len(model.input_names) - 1, path.num_samples), 1.5)
+        path = jh.InputPath(path.t0, path.dt, path.values, channels=more)
     y = np.asarray(jh.simulate(model, path, jh.RK4(), throw=False))
     recording = jh.Recording(
         np.asarray(path.times), np.asarray(path.values), y, name="r", input_unit="V"

@@ -96,7 +96,7 @@ def test_bad_more_inputs_get_clear_errors():
     t = np.arange(10.0)
     with pytest.raises(jh.RecordingError, match="length mismatch.*'v' has 9"):
         jh.Recording(t, t, t, more_inputs={"v": t[:-1]})
-    with pytest.raises(jh.RecordingError, match="distinct names"):
+    with pytest.raises(jh.RecordingError, match="share a name"):
         jh.Recording(t, t, t, more_inputs={"u": t})
     with pytest.raises(jh.RecordingError, match="NaN/inf"):
         jh.Recording(t, t, t, more_inputs={"v": np.where(t > 3, np.nan, t)})

@@ -15,7 +15,7 @@ from jaxhyst._diagnose._remainder import (
     SWITCH_ON,
     remainder,
 )
-from jaxhyst._report import jsonable
+from jaxhyst._serialise import jsonable
 
 
 DT = 0.01

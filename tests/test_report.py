@@ -1,11 +1,13 @@
-"""Reports of fits and diagnoses (`jaxhyst._report`): figures, Markdown, JSON.
+"""Reports of fits and diagnoses (`jaxhyst._report`): figures, Markdown, HTML, JSON.
 
 The diagnosis here is built by hand (one made-up finding) so that every section of
 the report is exercised without running the diagnosis itself."""
 
+import base64
 import json
 import math
 import re
+from html.parser import HTMLParser
 from pathlib import Path
 
 import jax
@@ -20,17 +22,19 @@ from jaxhyst._models.extended import ExtendedPiezo
 from jaxhyst._report import (
     DIAGNOSIS_FIGURES,
     FIT_FIGURES,
+    diagnosis_html,
     diagnosis_markdown,
     diagnosis_summary,
     fit_summary,
-    jsonable,
     metrics_table,
     rmse_change,
+    write_compensation_report,
     write_diagnosis_figures,
+    write_diagnosis_html,
     write_diagnosis_report,
     write_fit_figures,
-    write_json,
 )
+from jaxhyst._serialise import jsonable, write_json
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -370,11 +374,9 @@ def test_one_base_rmse_and_one_improvement_per_report(
     (console_base,) = [
         line for line in console.splitlines() if line.startswith("base model")
     ]
-    found = {
-        from_base.group(1),
-        base_rows[0][-2].strip(),
-        re.search(r"RMSE on all samples (\S+)", console_base).group(1),
-    }
+    console_rmse = re.search(r"RMSE on all samples (\S+)", console_base)
+    assert console_rmse is not None, console_base
+    found = {from_base.group(1), base_rows[0][-2].strip(), console_rmse.group(1)}
     assert found == {base}, found
     # The plain fit keeps its row, labelled as another model.
     assert "| plain PiezoBoucWen fit on all samples (not the base) |" in text
@@ -390,3 +392,195 @@ def test_report_and_summary_say_what_is_left(diagnosis, recording, tmp_path):
         diagnosis, recording
     )
     assert diagnosis.to_dict()["remainder"]["verdict"] == left.verdict
+
+
+# ------------------------------------------------------------ plots, HTML, refusals
+
+
+def test_plots_draw_on_the_axes_they_are_given(recording, tmp_path):
+    """Two plots composed into one figure: each draws on the Axes it is given and
+    returns it; a multi-panel plot takes a sequence of Axes."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(10.0, 6.0), layout="constrained")
+    (loop, trend), (upper, lower) = figure.subplots(2, 2)
+    y = np.asarray(recording.y)
+    assert jh.plot_loop(recording.u, {"measured": y}, ax=loop) is loop
+    errors = {"model": np.abs(y - np.mean(y))}
+    assert jh.plot_error_trend(recording.t, errors, ax=trend) is trend
+    drawn = jh.plot_time_history(
+        recording.t, recording.u, {"measured": y}, axes=[upper, lower]
+    )
+    assert list(drawn) == [upper, lower]
+    assert len(figure.axes) == 4
+    for axis in (loop, trend, upper, lower):
+        assert axis.get_lines()
+    assert loop.get_lines()[0].get_xdata().shape == y.shape
+    path = jh.save_figure(figure, tmp_path / "composed.png")
+    assert path.read_bytes().startswith(PNG_SIGNATURE)
+    # Saving refuses to replace a file and names the fix; an Axes saves its figure.
+    with pytest.raises(FileExistsError, match="pass overwrite=True"):
+        jh.save_figure(loop, path)
+    assert jh.save_figure(loop, path, overwrite=True) == path
+
+
+class _Page(HTMLParser):
+    """The headings and table rows of an HTML page, checking that every element
+    that opens closes, in order."""
+
+    VOID = {"meta", "img", "br", "hr", "link"}
+
+    def __init__(self):
+        super().__init__(convert_charrefs=True)
+        self.open: list[str] = []
+        self.headings: list[tuple[int, str]] = []
+        self.rows: list[list[str]] = []
+        self.sources: list[str] = []
+        self._text: list[str] | None = None
+        self._row: list[str] | None = None
+
+    def handle_starttag(self, tag, attrs):
+        if tag not in self.VOID:
+            self.open.append(tag)
+        if tag in ("h1", "h2", "h3", "td", "th"):
+            self._text = []
+        if tag == "tr":
+            self._row = []
+        if tag == "img":
+            self.sources.append(dict(attrs)["src"] or "")
+
+    def handle_endtag(self, tag):
+        assert self.open and self.open[-1] == tag, (self.open, tag)
+        self.open.pop()
+        if tag in ("h1", "h2", "h3"):
+            assert self._text is not None
+            self.headings.append((int(tag[1]), "".join(self._text)))
+        if tag in ("td", "th"):
+            assert self._row is not None and self._text is not None
+            self._row.append("".join(self._text))
+        if tag == "tr":
+            assert self._row is not None
+            self.rows.append(self._row)
+
+    def handle_data(self, data):
+        if self._text is not None:
+            self._text.append(data)
+
+
+def _plain(markdown: str) -> str:
+    """Markdown inline text as its HTML shows it (no ** or backticks)."""
+    text = re.sub(r"\[([^\]]+)\]\([^)]+\)", r"\1", markdown)
+    return text.replace("**", "").replace("`", "")
+
+
+def test_html_report_is_self_contained_with_the_markdown_content(
+    diagnosis, recording, tmp_path
+):
+    figures = write_diagnosis_figures(diagnosis, recording, tmp_path / "figures")
+    report = write_diagnosis_report(
+        diagnosis,
+        recording,
+        tmp_path / "report.md",
+        figures,
+        files={"diagnosis JSON": tmp_path / "d.json"},
+    )
+    markdown = report.read_text(encoding="utf-8")
+    text = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert text.startswith("<!DOCTYPE html>")
+    # Every figure embedded (the very bytes of its file); nothing loaded from a file.
+    assert text.count('src="data:image/png;base64,') == len(figures)
+    assert not re.findall(r'src="(?!data:image/png;base64,)', text)
+    assert "<link" not in text and "<script" not in text
+    page = _Page()
+    page.feed(text)
+    page.close()
+    assert page.open == []
+    for source, path in zip(page.sources, figures.values(), strict=True):
+        data = base64.b64decode(source.removeprefix("data:image/png;base64,"))
+        assert data == path.read_bytes()
+    # The same headings and tables as the Markdown.
+    headings = [
+        (len(line) - len(line.lstrip("#")), _plain(line.lstrip("#").strip()))
+        for line in markdown.splitlines()
+        if line.startswith("#")
+    ]
+    assert page.headings == headings
+    assert (3, "1. asymmetry") in headings and (2, "Figures") in headings
+    rows = [
+        [_plain(cell.strip()) for cell in line.strip("|").split("|")]
+        for line in markdown.splitlines()
+        if line.startswith("|") and not line.startswith("|---")
+    ]
+    assert page.rows == rows
+    assert "made-up evidence" in text and AMBIGUITY in text
+    assert '<a href="d.json">diagnosis JSON</a>' in text
+    # The text functions give the files' texts.
+    args = (diagnosis, recording, report, figures)
+    files = {"diagnosis JSON": tmp_path / "d.json"}
+    assert diagnosis_html(*args, files=files) == text
+    assert diagnosis_markdown(*args, files=files) == markdown
+    # The HTML alone, or no HTML.
+    alone = tmp_path / "alone.html"
+    write_diagnosis_html(diagnosis, recording, alone, figures, files=files)
+    assert alone.read_text(encoding="utf-8") == text
+    only = write_diagnosis_report(
+        diagnosis, recording, tmp_path / "only.md", figures, html=False
+    )
+    assert only.exists() and not (tmp_path / "only.html").exists()
+
+
+def test_report_writers_refuse_to_overwrite_and_name_the_fix(
+    diagnosis, recording, tmp_path
+):
+    figures = write_diagnosis_figures(diagnosis, recording, tmp_path / "figures")
+    (tmp_path / "report.html").write_text("mine")
+    # Either file refuses the pair, before anything is written.
+    with pytest.raises(FileExistsError, match="report.html.*pass overwrite=True"):
+        write_diagnosis_report(diagnosis, recording, tmp_path / "report.md", figures)
+    assert not (tmp_path / "report.md").exists()
+    assert (tmp_path / "report.html").read_text() == "mine"
+    with pytest.raises(FileExistsError, match="write_diagnosis_html: .*overwrite=True"):
+        write_diagnosis_html(diagnosis, recording, tmp_path / "report.html", figures)
+    write_diagnosis_report(
+        diagnosis, recording, tmp_path / "report.md", figures, overwrite=True
+    )
+    assert (tmp_path / "report.html").read_text(encoding="utf-8") != "mine"
+    # The HTML embeds its figures, so they must exist; the Markdown path is not .html.
+    missing = {**figures, "loop": tmp_path / "nowhere.png"}
+    with pytest.raises(FileNotFoundError, match="write the figures first"):
+        write_diagnosis_report(diagnosis, recording, tmp_path / "new.md", missing)
+    assert not (tmp_path / "new.md").exists()
+    with pytest.raises(ValueError, match="pass the Markdown report's path"):
+        write_diagnosis_report(diagnosis, recording, tmp_path / "r.html", figures)
+    # The figure writers refuse before drawing any.
+    (tmp_path / "fit").mkdir()
+    (tmp_path / "fit" / FIT_FIGURES["fit_loop"]).write_bytes(b"mine")
+    with pytest.raises(FileExistsError, match="write_fit_figures: .*overwrite=True"):
+        write_fit_figures(object(), recording, tmp_path / "fit")  # type: ignore[arg-type]
+
+
+def test_compensation_report(tmp_path):
+    t = np.linspace(0.0, 4.0, 201)
+    reference = jh.Recording(
+        t, t, 0.1 * (1 - np.cos(np.pi * t / 2)), name="ref", output_unit="m"
+    )
+    model = jh.PiezoBoucWen(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
+    result = jh.compensate(model, reference.t, reference.y, limits=(0.0, 4.0))
+    folder = tmp_path / "rep"
+    written = write_compensation_report(
+        result, reference, folder / "report.md", model=model, model_file="m.json"
+    )
+    names = ["report.md", "report.html", *jh.COMPENSATION_FIGURES.values()]
+    assert [path.name for path in written] == names
+    text = (folder / "report.md").read_text(encoding="utf-8")
+    assert text.startswith("# Compensation\n\nModel `PiezoBoucWen` from `m.json`; ")
+    assert "reference `ref` (201 samples at 50 Hz); drive limits 0 to 4." in text
+    assert "| RMS | " in text and " µm | " in text
+    assert "![drive and output](compensation_drive.png)" in text
+    html = (folder / "report.html").read_text(encoding="utf-8")
+    assert html.count('src="data:image/png;base64,') == 2
+    (folder / "compensation_error.png").write_bytes(b"mine")
+    with pytest.raises(FileExistsError, match="write_compensation_report: "):
+        write_compensation_report(result, reference, folder / "other.md", model=model)
+    assert not (folder / "other.md").exists()
+    assert (folder / "compensation_error.png").read_bytes() == b"mine"

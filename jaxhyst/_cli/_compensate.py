@@ -6,20 +6,24 @@ from pathlib import Path
 
 import numpy as np
 
-from .._compensate import Compensation, compensate
+from .._compensate import compensate
 from .._evaluate import default_solver
 from .._files import prepare_parent
 from .._model_files import LoadedModel
-from .._models.base import AbstractHysteresisModel
 from .._plots import require_matplotlib
 from .._recording import Recording
-from .._report import display_unit
+from .._report import (
+    COMPENSATION_FIGURES,
+    display_unit,
+    html_path,
+    write_compensation_report,
+)
 from .._status import RESULTS
 from ._options import add_model_file_argument, column, load_model_file, warn
 from ._outputs import check_files, print_written
 
 
-_FIGURES = ("compensation_drive.png", "compensation_error.png")
+_FIGURES = tuple(COMPENSATION_FIGURES.values())
 
 
 def add_parser(subparsers) -> None:
@@ -81,7 +85,8 @@ def add_parser(subparsers) -> None:
         default=None,
         metavar="PATH",
         help="write a Markdown report (tracking error, figures "
-        "next to it: " + ", ".join(_FIGURES) + ").",
+        "next to it: " + ", ".join(_FIGURES) + "), and the same report as "
+        "self-contained HTML next to it (PATH with .html, figures embedded).",
     )
     parser.add_argument(
         "--force", action="store_true", help="replace existing outputs."
@@ -130,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
     outputs = [("--out", out)]
     if report is not None:
         outputs.append(("--report", report))
+        outputs.append(("--report", html_path(report, "--report")))
         outputs += [("--report", report.parent / name) for name in _FIGURES]
     check_files(outputs, args.force)
     if report is not None:
@@ -186,96 +192,15 @@ def run(args: argparse.Namespace) -> int:
     )
     written = [out]
     if report is not None:
-        written += _write_compensation_report(
-            report,
+        written += write_compensation_report(
             result,
             reference,
+            report,
             model=loaded.model,
             model_file=args.model_file,
             reference_file=args.reference,
-            limits=limits,
-            scale=scale,
-            unit=unit,
+            output_unit=loaded.units["output"],
             overwrite=args.force,
         )
     print_written(written)
     return 0
-
-
-# The report and its figures belong with the report code (`jaxhyst._report`); it
-# takes no command-line arguments so that it can move there as it stands.
-def _write_compensation_report(
-    report: Path,
-    result: Compensation,
-    reference: Recording,
-    *,
-    model: AbstractHysteresisModel,
-    model_file: str,
-    reference_file: str,
-    limits: tuple[float, float],
-    scale: float,
-    unit: str,
-    overwrite: bool,
-) -> list[Path]:
-    from .._plots import plot_error_trend, plot_time_history
-
-    prepare_parent(report)
-    folder = report.parent
-    t = np.asarray(result.times)
-    label = f"output [{unit}]" if unit else "output"
-    drive = plot_time_history(
-        folder / _FIGURES[0],
-        t,
-        np.asarray(result.drive),
-        {"reference": reference.y, "predicted": np.asarray(result.predicted)},
-        ulabel="drive u",
-        ylabel=label,
-        scale=scale,
-        overwrite=overwrite,
-        title="Compensation: drive (top), reference and predicted output",
-    )
-    error = plot_error_trend(
-        folder / _FIGURES[1],
-        t,
-        {"|predicted - reference|": np.abs(np.asarray(result.error))},
-        ylabel=f"absolute error [{unit}]" if unit else "absolute error",
-        scale=scale,
-        overwrite=overwrite,
-        title="Predicted tracking error",
-    )
-    tracking = result.tracking()
-    s = f" {unit}" if unit else ""
-    lines = [
-        "# Compensation",
-        "",
-        f"Model `{type(model).__name__}` from `{model_file}`; reference "
-        f"`{reference_file}` ({reference.num_samples} samples at "
-        f"{reference.sample_rate:g} Hz); drive limits {limits[0]:g} to {limits[1]:g}.",
-        "",
-        f"Method: {result.method} ("
-        + (
-            "at every sample, the drive in the limits whose one-sample simulation "
-            "meets the reference, by bisection"
-            if result.method == "per-sample inversion"
-            else "the whole drive optimised through the simulator, from the inverse "
-            "of the model's quasi-static part"
-        )
-        + "). The errors are the model's prediction: the stage tracks as well as "
-        "the model describes it.",
-        "",
-        "| predicted tracking error | value | % of stroke |",
-        "|---|---|---|",
-        f"| RMS | {scale * tracking['rms_error']:.4g}{s} | "
-        f"{tracking['rms_error_percent_of_stroke']:.3g} |",
-        f"| maximum | {scale * tracking['max_error']:.4g}{s} | "
-        f"{tracking['max_error_percent_of_stroke']:.3g} |",
-        "",
-        f"Samples out of reach inside the limits: {tracking['samples_at_limit']}.",
-        "",
-        f"![drive and output]({drive.name})",
-        "",
-        f"![tracking error]({error.name})",
-        "",
-    ]
-    report.write_text("\n".join(lines))
-    return [report, drive, error]

@@ -17,6 +17,7 @@ from .._report import (
     diagnosis_summary,
     display_unit,
     fit_summary,
+    html_path,
     write_diagnosis_figures,
     write_diagnosis_report,
     write_fit_figures,
@@ -30,7 +31,7 @@ _FIGURES = {
     **{name: f"figures/{file}" for name, file in FIT_FIGURES.items()},
     **{name: f"figures/{file}" for name, file in DIAGNOSIS_FIGURES.items()},
 }
-_FILES = ("recording.csv", "fit.json", "diagnosis.json", "report.md")
+_FILES = ("recording.csv", "fit.json", "diagnosis.json", "report.md", "report.html")
 
 
 def add_parser(subparsers) -> None:
@@ -44,6 +45,8 @@ def add_parser(subparsers) -> None:
             "diagnose the missing physics and refit, and write DIR/report.md with "
             "the paper-style figures (DIR/figures/), a before/after table in the "
             "format of the paper's Tables 5/6, the findings with their evidence, "
+            "the same report as one self-contained HTML file (DIR/report.html, "
+            "figures embedded), "
             "and DIR/recording.csv, DIR/fit.json, DIR/diagnosis.json. Takes about two "
             "minutes on two CPU cores, most of it in the diagnosis's refits."
         ),
@@ -178,4 +181,5 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"demo finished in {time.perf_counter() - start:.0f} s")
     print(f"report: {report}")
+    print(f"the same as one HTML file, figures embedded: {html_path(report)}")
     return 0

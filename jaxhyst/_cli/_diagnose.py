@@ -15,6 +15,7 @@ from .._recording import Recording
 from .._report import (
     DIAGNOSIS_FIGURES,
     diagnosis_summary,
+    html_path,
     write_diagnosis_figures,
     write_diagnosis_report,
 )
@@ -82,7 +83,8 @@ def add_parser(subparsers) -> None:
         metavar="PATH",
         default=None,
         help="write a Markdown report linking the figures (into --plots, or else a "
-        "folder PATH-stem_figures next to the report).",
+        "folder PATH-stem_figures next to the report), and the same report as "
+        "self-contained HTML next to it (PATH with .html, figures embedded).",
     )
     parser.add_argument(
         "--force",
@@ -102,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
         files.append(("--json", json_path))
     if report_path is not None:
         files.append(("--report", report_path))
+        files.append(("--report", html_path(report_path, "--report")))
     check_files(files, args.force)
     plots = Path(args.plots) if args.plots is not None else None
     if plots is None and report_path is not None:
@@ -147,4 +150,5 @@ def run(args: argparse.Namespace) -> int:
             files=extra,
         )
         print(f"wrote {report_path}")
+        print(f"wrote {html_path(report_path)}")
     return 0

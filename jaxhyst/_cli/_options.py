@@ -83,7 +83,7 @@ def add_recording_options(parser, *, several: bool = False) -> None:
     for option, default in (("time", "t"), ("input", "u"), ("output", "y")):
         index = ("t", "u", "y").index(default)
         no_time = "" if option == "time" else f", with --no-time: {index - 1}"
-        several = (
+        repeat = (
             "; repeat it for a system with several inputs (an MR damper: --input u "
             "--input v; the first is the mechanical one). Without it, the inputs a "
             "jaxhyst-saved file names, else u"
@@ -96,7 +96,7 @@ def add_recording_options(parser, *, several: bool = False) -> None:
             action="append" if option == "input" else "store",
             metavar="COLUMN",
             help=f"the {option} column: header name (default: {default}) or 0-based "
-            f"index (default with --no-header: {index}{no_time}){several}.",
+            f"index (default with --no-header: {index}{no_time}){repeat}.",
         )
     group.add_argument(
         "--no-header",

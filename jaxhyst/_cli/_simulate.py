@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .._plots import plot_loop, require_matplotlib
+from .._plots import require_matplotlib, save_figure
 from .._recording import Recording
-from .._report import display_unit
+from .._report import display_unit, loop_figure
 from .._signals import sample
 from .._simulate import RK4, simulate
 from .._stability import bibo_stability
@@ -147,17 +147,15 @@ def run(args: argparse.Namespace) -> int:
     Path(args.out).mkdir(parents=True, exist_ok=True)
     recording.save(csv_path, overwrite=args.force)
     scale, y_unit = display_unit(choice.output_unit)
-    plot_loop(
-        png_path,
+    loop = loop_figure(
         recording.u,
         {f"{type(model).__name__} ({args.model})": recording.y},
         xlabel="input u" + (f" [{choice.input_unit}]" if choice.input_unit else ""),
         ylabel="output y" + (f" [{y_unit}]" if y_unit else ""),
         title=f"{type(model).__name__} under {args.signal}: hysteresis loop",
         scale=scale,
-        detrend=True,
-        overwrite=args.force,
     )
+    save_figure(loop, png_path, overwrite=args.force)
 
     parameters = ", ".join(f"{k}={float(v):.6g}" for k, v in model.parameters().items())
     unit = f" {y_unit}" if y_unit else ""
