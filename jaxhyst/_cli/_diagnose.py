@@ -1,5 +1,5 @@
 """`jaxhyst diagnose`: find the physics a model leaves out of a recording;
-summary, JSON, figures, Markdown report."""
+summary, JSON, figures, Markdown and HTML report."""
 
 import argparse
 from pathlib import Path
@@ -41,15 +41,17 @@ def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "diagnose",
         help="find the physics a piezo model leaves out of a recording; summary, "
-        "JSON, figures, Markdown report",
+        "JSON, figures, Markdown and HTML report",
         description=(
             "Fit the quasi-static piezo model (eq. 7-8) on part of a recording, score "
             "every catalogue effect (" + ", ".join(EFFECT_NAMES) + ") on its residual, "
             "refit the strongest, and keep an effect only if it lowers the error on "
             "held-out data by more than the noise; repeat. Prints the findings with "
             "their evidence, the RMSE before/after and any ambiguities; --json, "
-            "--plots and --report save them. Existing outputs are never replaced "
-            "without --force."
+            "--plots and --report save them. Several recordings of one specimen (same "
+            "units and sample rate) are diagnosed as one: one model, held-out data "
+            "in each, each simulated from rest, their errors under 'per_recording' "
+            "in the JSON. Existing outputs are never replaced without --force."
         ),
     )
     add_recording_options(parser, several=True)
