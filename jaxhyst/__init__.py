@@ -12,10 +12,12 @@ from ._compensate import (
     compensate as compensate,
 )
 from ._datasets import (
+    MR_DAMPER_TESTS as MR_DAMPER_TESTS,
     STRUCTURAL_TESTS as STRUCTURAL_TESTS,
     BoucWenBenchmark as BoucWenBenchmark,
     default_data_dir as default_data_dir,
     load_bouc_wen_benchmark as load_bouc_wen_benchmark,
+    load_mr_damper as load_mr_damper,
     load_piezo_actuator as load_piezo_actuator,
     load_structural_test as load_structural_test,
 )

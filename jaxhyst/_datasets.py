@@ -311,6 +311,56 @@ def _timber_steel_plate(data_dir) -> Recording:
     )
 
 
+_MR_DAMPER_DIR = Path("mr_damper_dyke_nees")
+_MR_DAMPER_SOURCE = (
+    "download Dataset/<name>_converted.csv from GitHub Abhay3757/PSO-Optimized-Dual-"
+    "Attention-LSTM-for-MR-Damper-Force-Prediction (S. Dyke, NEES-2012-1158, "
+    "DOI 10.4231/D3V11VM6X)"
+)
+_MR_DAMPER_RATE = 3004.8
+MR_DAMPER_TESTS = ("ranran_50", "ransim_u")
+"""The names `load_mr_damper` accepts."""
+
+
+def load_mr_damper(
+    name: str, *, data_dir: str | os.PathLike | None = None
+) -> Recording:
+    """A measured white-noise test of a prototype MR damper (S. Dyke,
+    NEES-2012-1158, recorded 1994-1996): displacement [cm] and command voltage [V]
+    (the further input "command") -> force [N], at 3004.8 Hz.
+
+    - "ranran_50": 74068 samples (24.6 s), 0-50 Hz white-noise displacement and a
+      random command between -0.43 and 2.69 V.
+    - "ransim_u": 60096 samples (20.0 s), the upstream "simulation" test class
+      (command filtered).
+
+    The files' time column is rounded to 0.1 ms, so the time is rebuilt on the
+    stated 3004.8 Hz grid (t = k / 3004.8). Raises `ValueError` for an unknown
+    name and `FileNotFoundError`, saying where to get the file, when it is missing.
+    """
+    if name not in MR_DAMPER_TESTS:
+        raise ValueError(
+            f"load_mr_damper: unknown test {name!r}; choose from "
+            f"{', '.join(map(repr, MR_DAMPER_TESTS))}."
+        )
+    path = _locate(
+        data_dir, _MR_DAMPER_DIR / f"{name}_converted.csv", _MR_DAMPER_SOURCE
+    )
+    raw = Recording.load(path, input=["D", "Y"], output="F", resample=True)
+    return Recording(
+        np.arange(raw.num_samples) / _MR_DAMPER_RATE,
+        raw.u,
+        raw.y,
+        name=f"mr_damper_{name}",
+        input_name="displacement",
+        output_name="force",
+        input_unit="cm",
+        output_unit="N",
+        more_inputs={"command": raw.more_input("Y")},
+        more_input_units={"command": "V"},
+    )
+
+
 def load_structural_test(
     name: str, *, data_dir: str | os.PathLike | None = None
 ) -> Recording:

@@ -9,6 +9,7 @@ import numpy as np
 from ._diagnose._families import StructuralFamily
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, PiezoStage
+from ._models.damper import BoucWenDamper, SpencerDamper
 from ._models.structural import StructuralBoucWen
 from ._recording import Recording
 from ._simulate import RK4, simulate
@@ -17,12 +18,16 @@ from ._simulate import RK4, simulate
 def default_solver(model: AbstractHysteresisModel, recording: Recording) -> RK4:
     """The solver `jaxhyst fit` / `diagnose` simulate this kind of model with: RK4
     with 4 substeps for `PiezoStage` (its stage is stiff on the sample scale), the
-    structural family's substeps for `BoucWen` and `StructuralBoucWen`, else one
-    RK4 step per sample."""
+    structural family's substeps for `BoucWen` and `StructuralBoucWen`, the
+    model's own `recommended_substeps` for the MR damper models (their internal
+    dashpot and sharp loops are stiff at kHz sample rates), else one RK4 step per
+    sample."""
     if isinstance(model, PiezoStage):
         return RK4(substeps=4)
     if isinstance(model, (BoucWen, StructuralBoucWen)):
         return StructuralFamily().solver(recording)
+    if isinstance(model, (BoucWenDamper, SpencerDamper)):
+        return RK4(substeps=model.recommended_substeps(recording.input_path()))
     return RK4()
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from .._diagnose._families import AbstractFamily, PiezoFamily, StructuralFamily
 from .._models.base import AbstractHysteresisModel
 from .._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
+from .._models.damper import BoucWenDamper, SpencerDamper
 from .._signals import AbstractSignal, Chirp, Multisine, Triangle, paper_u1, paper_u2
 
 
@@ -127,7 +128,35 @@ FIT_MODELS: dict[str, FitChoice] = {
             _piezo_template(), natural_frequency=50.0, damping_ratio=0.5
         ),
     ),
+    "mr-damper": FitChoice(
+        "BoucWenDamper (an MR damper at a fixed field: dashpot, spring and Bouc-Wen "
+        "element in parallel; reads the displacement)",
+        lambda: _damper_template(),
+    ),
+    "spencer": FitChoice(
+        "SpencerDamper (Spencer et al. 1997's modified Bouc-Wen MR damper; reads the "
+        "displacement and the command: --input u --input v; stiff, so RK4 substeps "
+        "follow the record and long records are slow: fit a window with "
+        "--start/--end)",
+        lambda: SpencerDamper.spencer_1997(),
+    ),
 }
+
+
+def _damper_template() -> BoucWenDamper:
+    # Spencer et al.'s values at 0 V (N, cm, s): only the RK4 substeps read them.
+    s = SpencerDamper.spencer_1997()
+    return BoucWenDamper(
+        c0=s.c0a,
+        k0=s.k0,
+        x0=0.0,
+        alpha=s.alpha_a,
+        f0=0.0,
+        A=s.A,
+        beta=s.beta,
+        gamma=s.gamma,
+        n=s.n,
+    )
 
 
 # ------------------------------------------------------------- fit --preset
