@@ -134,40 +134,67 @@ def write_fit_figures(
     unless `overwrite` (before drawing any). Returns {name: path} (see
     `FIT_FIGURES`)."""
     paths = _folder(directory, FIT_FIGURES, overwrite, "write_fit_figures")
-    scale, unit, xlabel, ylabel = labels(recording)
+    scale, unit, _, _ = labels(recording)
     name = label or type(fit.model).__name__
     predicted = np.asarray(fit.predicted)
     y = np.asarray(recording.y)
-    curves = {"measured": y, name: predicted}
+    _loop_history_error(
+        recording,
+        {"measured": y, name: predicted},
+        {name: np.abs(y - predicted)},
+        (paths["fit_loop"], paths["fit_time_history"], paths["fit_error_trend"]),
+        (
+            f"measured vs {name}",
+            "time histories",
+            f"absolute error of {name} (RMSE on all samples "
+            f"{number(scale * fit.metrics['rmse'])}{' ' + unit if unit else ''})",
+        ),
+        overwrite,
+    )
+    return paths
+
+
+def _loop_history_error(
+    recording: Recording,
+    curves: dict[str, np.ndarray],
+    errors: dict[str, np.ndarray],
+    paths: tuple[Path, Path, Path],
+    titles: tuple[str, str, str],
+    overwrite: bool,
+) -> None:
+    """The three figures every report opens with: the loops, the time histories
+    (of `curves`) and the absolute-error trends (`errors`), saved to `paths` with
+    `titles` after the recording's name."""
+    scale, unit, xlabel, ylabel = labels(recording)
+    loop_path, history_path, trend_path = paths
+    loop_title, history_title, trend_title = titles
     loop = loop_figure(
         recording.u,
         curves,
         xlabel=xlabel,
         ylabel=ylabel,
-        title=f"{recording.name}: measured vs {name}",
+        title=f"{recording.name}: {loop_title}",
         scale=scale,
     )
-    save_figure(loop, paths["fit_loop"], overwrite=overwrite)
+    save_figure(loop, loop_path, overwrite=overwrite)
     history = plot_time_history(
         recording.t,
         recording.u,
         curves,
         ulabel=xlabel,
         ylabel=ylabel,
-        title=f"{recording.name}: time histories",
+        title=f"{recording.name}: {history_title}",
         scale=scale,
     )
-    save_figure(history, paths["fit_time_history"], overwrite=overwrite)
+    save_figure(history, history_path, overwrite=overwrite)
     trend = plot_error_trend(
         recording.t,
-        {name: np.abs(y - predicted)},
+        errors,
         ylabel=f"absolute error |y - yhat|{bracket(unit)}",
-        title=f"{recording.name}: absolute error of {name} (RMSE on all samples "
-        f"{number(scale * fit.metrics['rmse'])}{' ' + unit if unit else ''})",
+        title=f"{recording.name}: {trend_title}",
         scale=scale,
     )
-    save_figure(trend, paths["fit_error_trend"], overwrite=overwrite)
-    return paths
+    save_figure(trend, trend_path, overwrite=overwrite)
 
 
 def write_diagnosis_figures(
@@ -200,39 +227,24 @@ def write_diagnosis_figures(
     curves = {"measured": y, before_name: base}
     if changed:
         curves[after_name] = final
-    loop = loop_figure(
-        recording.u,
-        curves,
-        xlabel=xlabel,
-        ylabel=ylabel,
-        title=f"{recording.name}: loops before/after the diagnosis",
-        scale=scale,
-    )
-    save_figure(loop, paths["loop"], overwrite=overwrite)
-    history = plot_time_history(
-        recording.t,
-        recording.u,
-        curves,
-        ulabel=xlabel,
-        ylabel=ylabel,
-        title=f"{recording.name}: time histories before/after",
-        scale=scale,
-    )
-    save_figure(history, paths["time_history"], overwrite=overwrite)
     change = rmse_change(diagnosis)
     rmse = f"RMSE {number(scale * change.base)}"
     errors = {f"{before_name} ({rmse})": np.abs(y - base)}
     if changed:
         rmse = f"RMSE {number(scale * change.final)}, {change.percent_text}"
         errors[f"{after_name} ({rmse})"] = np.abs(y - final)
-    trend = plot_error_trend(
-        recording.t,
+    _loop_history_error(
+        recording,
+        curves,
         errors,
-        ylabel=f"absolute error |y - yhat|{bracket(unit)}",
-        title=f"{recording.name}: absolute error before/after (RMSE on all samples)",
-        scale=scale,
+        (paths["loop"], paths["time_history"], paths["error_trend"]),
+        (
+            "loops before/after the diagnosis",
+            "time histories before/after",
+            "absolute error before/after (RMSE on all samples)",
+        ),
+        overwrite,
     )
-    save_figure(trend, paths["error_trend"], overwrite=overwrite)
     if changed:
         residuals = {
             f"before: {before_name}": y - base,
