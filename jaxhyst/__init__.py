@@ -28,18 +28,25 @@ from ._diagnose._effects.base import (
     RefitScales as RefitScales,
 )
 from ._diagnose._effects.creep import Creep as Creep
+from ._diagnose._effects.damper_asymmetry import DamperAsymmetry as DamperAsymmetry
+from ._diagnose._effects.damper_offset import DamperOffset as DamperOffset
 from ._diagnose._effects.degradation import Degradation as Degradation
 from ._diagnose._effects.drift import Drift as Drift
+from ._diagnose._effects.driver_lag import DriverLag as DriverLag
 from ._diagnose._effects.dynamics import Dynamics as Dynamics
+from ._diagnose._effects.field_dependence import FieldDependence as FieldDependence
 from ._diagnose._effects.input_bias import InputBias as InputBias
 from ._diagnose._effects.pinching import Pinching as Pinching
 from ._diagnose._effects.push_pull import PushPullAsymmetry as PushPullAsymmetry
 from ._diagnose._effects.rate_dependence import RateDependence as RateDependence
+from ._diagnose._effects.rolloff import Rolloff as Rolloff
 from ._diagnose._families import (
     CATALOGUE as CATALOGUE,
+    DAMPER_EFFECT_NAMES as DAMPER_EFFECT_NAMES,
     EFFECT_NAMES as EFFECT_NAMES,
     STRUCTURAL_EFFECT_NAMES as STRUCTURAL_EFFECT_NAMES,
     AbstractFamily as AbstractFamily,
+    DamperFamily as DamperFamily,
     PiezoFamily as PiezoFamily,
     StructuralFamily as StructuralFamily,
 )
@@ -138,6 +145,7 @@ from ._models.damper import (
     DamperDrive as DamperDrive,
     SpencerDamper as SpencerDamper,
 )
+from ._models.damper_extended import ExtendedDamper as ExtendedDamper
 from ._models.extended import ExtendedPiezo as ExtendedPiezo
 from ._models.oscillator import HystereticOscillator as HystereticOscillator
 from ._models.structural import StructuralBoucWen as StructuralBoucWen

@@ -43,6 +43,7 @@ from ._files import Refusal, refuse_folder
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from ._models.damper import BoucWenDamper, SpencerDamper
+from ._models.damper_extended import ExtendedDamper
 from ._models.extended import ExtendedPiezo
 from ._models.oscillator import HystereticOscillator
 from ._models.structural import StructuralBoucWen
@@ -69,6 +70,7 @@ MODEL_CLASSES: dict[str, type[AbstractHysteresisModel]] = {
         ExtendedPiezo,
         BoucWenDamper,
         SpencerDamper,
+        ExtendedDamper,
     )
 }
 SMOOTHING_RULES: dict[str, type[AbstractSmoothing]] = {

@@ -1085,7 +1085,10 @@ def diagnose(
     sample-wise analysis reads their samples one after another (the `joined`
     record: the `Diagnosis`'s predictions, masks and locations are on it; times
     in it continue across the joins). `Diagnosis.per_recording` has each
-    recording's errors before and after.
+    recording's errors before and after. Each recording must start from rest, as
+    separate tests do: a piece cut from the middle of a longer record starts with
+    a hysteretic state the model does not know (on a synthetic piezo record cut in
+    two, the second half simulated from rest missed by 38 noise sigmas).
 
     `policy` holds the adoption rules (`AdoptionPolicy`; None: the family's
     `default_policy()`). `swarm`: the base fit's swarm (None: the family's

@@ -14,6 +14,8 @@ import numpy as np
 
 from .._models.base import AbstractHysteresisModel
 from .._models.bouc_wen import BoucWen, PiezoBoucWen
+from .._models.damper import BoucWenDamper
+from .._models.damper_extended import ExtendedDamper
 from .._models.extended import ExtendedPiezo
 from .._models.structural import StructuralBoucWen
 from .._opensees import opensees_json
@@ -24,16 +26,23 @@ from .._swarm import MPSO
 from ._effects.asymmetry import Asymmetry
 from ._effects.base import AbstractEffect, model_as
 from ._effects.creep import Creep
+from ._effects.damper_asymmetry import DamperAsymmetry
+from ._effects.damper_offset import DamperOffset
 from ._effects.degradation import Degradation
 from ._effects.drift import Drift
+from ._effects.driver_lag import DriverLag
 from ._effects.dynamics import Dynamics
+from ._effects.field_dependence import FieldDependence
 from ._effects.input_bias import InputBias
 from ._effects.pinching import Pinching
 from ._effects.push_pull import PushPullAsymmetry
 from ._effects.rate_dependence import RateDependence
+from ._effects.rolloff import Rolloff
 from ._locate import describe, describe_cycles, locate, locate_cycles
+from ._locate_damper import describe_damper, locate_damper
 from ._policy import AdoptionPolicy
 from ._probes import Probe, cyclic_probes, piezo_probes
+from ._probes_damper import damper_probes
 
 
 class AbstractFamily(eqx.Module):
@@ -297,6 +306,181 @@ class StructuralFamily(AbstractFamily):
         return max(1, math.ceil(recording.num_samples / 6000))
 
 
+class DamperFamily(AbstractFamily):
+    """The MR damper of fixed field (`BoucWenDamper`: a dashpot, a spring and
+    Bouc-Wen hysteresis driven by the piston's velocity, ignoring the command;
+    extended by `ExtendedDamper`) and what a controllable damper's record shows
+    beyond it: field dependence, driver lag, roll-off, offset drift, asymmetry.
+    Records: time, displacement, command (the first further input), force."""
+
+    catalogue: tuple[AbstractEffect, ...] = (
+        FieldDependence(),
+        DriverLag(),
+        Rolloff(),
+        DamperOffset(),
+        DamperAsymmetry(),
+    )
+    name: ClassVar[str] = "damper"
+    base_name: ClassVar[str] = "mr-damper"
+    base_free: ClassVar[tuple[str, ...]] = (
+        "c0",
+        "k0",
+        "alpha",
+        "f0",
+        "beta",
+        "gamma",
+        "n",
+    )
+    # A fixes z's scale; x0 only shifts the force like f0 does.
+    gauge: ClassVar[tuple[str, ...]] = ("A", "x0")
+    holdout_description: ClassVar[str] = "in 30 short blocks spread over the record"
+    # The smallest yield displacement the base may take, as a share of the largest
+    # displacement between two samples: sharper loops turn within a fraction of a
+    # sample at peak velocity, which the record does not resolve. It sets the RK4
+    # substeps: the Bouc-Wen element relaxes at up to n*|xdot|/z_y (n <= 3), and
+    # `PER_STEP` of that per substep leaves RK4 (stable to 2.8) room for refits
+    # that sharpen the loop and for the internal dashpot's relaxation.
+    YIELD_SHARE: ClassVar[float] = 0.25
+    PER_STEP: ClassVar[float] = 1.5
+
+    def check(self, recording):
+        if recording.num_inputs < 2:
+            raise ValueError(
+                f"diagnose: recording {recording.name!r} carries one input "
+                f"({recording.input_name!r}); the MR damper family reads the "
+                "displacement and the command (voltage or current) beside it: load "
+                "both, e.g. jaxhyst diagnose REC.csv --model mr-damper --input u "
+                "--input v, Recording.load(path, input=['u', 'v']), or "
+                "Recording(t, x, force, more_inputs={'command': v})."
+            )
+        if recording.has_pseudo_time:
+            raise ValueError(
+                f"diagnose: recording {recording.name!r} has a pseudo time (unit "
+                f"{recording.time_unit!r}), but a damper's force follows the "
+                "velocity; load the record with its time column."
+            )
+        recording.require_samples(600, what="the MR damper diagnosis")
+
+    def base_template(self):
+        return BoucWenDamper(1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1.0, 1.0, 2.0)
+
+    def _yield_floor(self, recording: Recording) -> float:
+        """The smallest yield displacement the diagnosis resolves (see
+        `YIELD_SHARE`)."""
+        step = float(np.max(np.abs(np.diff(np.asarray(recording.u)))))
+        return self.YIELD_SHARE * max(step, 1e-300)
+
+    def base_space(self, recording):
+        # A = 1/z_min fixes the gauge (z -> c z leaves the force unchanged
+        # otherwise) so that beta + gamma <= A is a yield displacement of z_min or
+        # more whatever n: beta and gamma up to A/2 each keep the loop within what
+        # the record resolves and the solver integrates. With z_u from 1 to 5e5
+        # (beta + gamma down to 2e-6*A), alpha (the yield force over z_u) spans
+        # 1e-9..10 max|F|. c0 around rms(F)/rms(xdot), k0 of either sign up to
+        # max|F|/max|x| (an accumulator's stiffness, which a plain fit may trade
+        # against the hysteresis), f0 within +-max|F|.
+        floor = self._yield_floor(recording)
+        x, y = np.asarray(recording.u), np.asarray(recording.y)
+        sx, sy = float(np.max(np.abs(x - np.mean(x)))), float(np.max(np.abs(y)))
+        velocity = np.diff(x) / recording.dt
+        viscous = float(
+            np.sqrt(np.mean(y**2)) / max(np.sqrt(np.mean(velocity**2)), 1e-300)
+        )
+        template = self.base_template().replace(A=1.0 / floor, x0=0.0)
+        bounds = {
+            "c0": (1e-3 * viscous, 10.0 * viscous),
+            "k0": (-sy / sx, sy / sx),
+            "alpha": (1e-9 * sy, 10.0 * sy),
+            "f0": (-sy, sy),
+            "beta": (1e-6 / floor, 0.5 / floor),
+            "gamma": (1e-6 / floor, 0.5 / floor),
+            "n": (1.0, 3.0),
+        }
+        return ParameterSpace(
+            template, bounds, log_scale=["c0", "alpha", "beta", "gamma"]
+        )
+
+    def base_bounds(self, name, value):
+        if name == "n":
+            return (1.0, 3.0)
+        return None
+
+    def extend(self, base, recording):
+        rms = float(np.sqrt(np.mean(np.asarray(recording.y) ** 2)))
+        return ExtendedDamper.around(base, recording.input_path(), rms)
+
+    def solver(self, recording):
+        # Substeps such that a loop at the yield floor is integrated at `PER_STEP`
+        # per substep at the record's peak velocity: n*max|dx|/(z_min*substeps).
+        return RK4(substeps=math.ceil(3.0 / (self.YIELD_SHARE * self.PER_STEP)))
+
+    def holdout(self, recording, fraction):
+        return holdout_blocks(recording.num_samples, fraction)
+
+    def locate(self, recording, residual):
+        window = (
+            max(3, round(0.01 * recording.sample_rate))
+            if recording.time_unit == "s"
+            else 30
+        )
+        return locate_damper(
+            np.asarray(recording.t),
+            np.asarray(recording.u),
+            np.asarray(recording.more_inputs[0]),
+            residual,
+            switch_window=window,
+            time_unit=recording.time_unit,
+        )
+
+    def describe(self, where):
+        return describe_damper(where)
+
+    def probes(self, recording):
+        return damper_probes(recording)
+
+    def default_policy(self):
+        # The base misfits a controllable damper's record grossly (it ignores the
+        # command): the held-out resolution's noise level is bounded by the better
+        # fit's held-out RMS, else the AR noise model (mostly misfit) would demand
+        # far too large a gain. A candidate's gain is credited only beyond a refit
+        # of the model it extends. (Candidate refits run no swarm: the extended
+        # model's lagged field is propagated once per sample.)
+        return AdoptionPolicy(null_refit=True, noise_bound=True)
+
+    def refit_stride(self, model, recording):
+        # A stiff record cannot be decimated for free: a stride s multiplies the
+        # step, and the loop's relaxation n*|xdot|/z_y per substep with it. Decimate
+        # only as far as the current model (with its loop sharpened 2x, as a refit
+        # may) stays within `PER_STEP` per substep, and the displacement keeps 20
+        # samples per period at the frequency below which 99 % of its power lies.
+        damper = model_as(model, ExtendedDamper, "damper family")
+        rate = damper.stiffness(_peak_velocity(recording), _command_range(recording))
+        substeps = self.solver(recording).substeps
+        by_stiffness = self.PER_STEP * substeps / max(2 * rate * recording.dt, 1e-300)
+        by_bandwidth = recording.sample_rate / (20 * _bandwidth(recording))
+        stride = int(max(1, min(by_stiffness, by_bandwidth)))
+        return stride if recording.num_samples > 2000 * stride else 1
+
+
+def _peak_velocity(recording: Recording) -> float:
+    return float(np.max(np.abs(np.diff(np.asarray(recording.u))))) / recording.dt
+
+
+def _command_range(recording: Recording) -> tuple[float, float]:
+    command = np.asarray(recording.more_inputs[0])
+    return (float(np.min(command)), float(np.max(command)))
+
+
+def _bandwidth(recording: Recording, share: float = 0.99) -> float:
+    """The frequency below which `share` of the displacement's power lies."""
+    x = np.asarray(recording.u) - np.mean(recording.u)
+    power = np.abs(np.fft.rfft(x)) ** 2
+    cumulative = np.cumsum(power)
+    freqs = np.fft.rfftfreq(x.size, recording.dt)
+    index = int(np.searchsorted(cumulative, share * cumulative[-1]))
+    return max(float(freqs[min(index, freqs.size - 1)]), 1.0 / recording.duration)
+
+
 def holdout_blocks(n: int, fraction: float, blocks: int = 30) -> np.ndarray:
     """Fit mask that holds out evenly spread blocks (about `fraction` of the samples),
     so that slow effects are judged by interpolation, not extrapolation. Many short
@@ -364,3 +548,4 @@ CATALOGUE: dict[str, AbstractEffect] = {e.name: e for e in PiezoFamily().catalog
 """The piezo family's effects by name (`PiezoFamily().catalogue`)."""
 EFFECT_NAMES: tuple[str, ...] = tuple(CATALOGUE)
 STRUCTURAL_EFFECT_NAMES: tuple[str, ...] = StructuralFamily().effect_names
+DAMPER_EFFECT_NAMES: tuple[str, ...] = DamperFamily().effect_names
