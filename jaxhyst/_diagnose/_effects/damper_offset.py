@@ -1,0 +1,46 @@
+"""Offset: the damper force's zero moves along the record."""
+
+from typing import ClassVar
+
+from .base import AbstractEffect, carries, conclude, fitted, named_units
+
+
+class DamperOffset(AbstractEffect):
+    """`ExtendedDamper`'s Legendre terms in time (trend, curvature, wander) added
+    to the force: the accumulator's preload drifting as the gas warms, a load-cell
+    zero drifting. The constant part is the base model's f0."""
+
+    name: ClassVar[str] = "offset"
+    parameters: ClassVar[tuple[str, ...]] = ("trend", "curvature", "wander")
+    meaning: ClassVar[str] = (
+        "the force's zero moves along the record, independently of the motion "
+        "(the accumulator's preload changing as the damper warms, a load-cell or "
+        "sensor offset drifting)"
+    )
+
+    def evidence(self, where, model):
+        return conclude(
+            [
+                carries(
+                    where["slow_trend_rms"],
+                    where["overall_rms"],
+                    "a slow trend (the residual's moving average over 1/25 of the "
+                    "record)",
+                )
+            ]
+        )
+
+    def units(self, *, time, input, output):
+        return dict.fromkeys(self.parameters, named_units(time, input, output).output)
+
+    def reading(self, values, errors, units):
+        # trend*s + curvature*(s^2 - 1/3) + wander*(5 s^3 - 3 s)/2, s from -1 to 1.
+        def q(name, scale=1.0):
+            return fitted(values, errors, units, name, scale)
+
+        return (
+            f"the force's zero moves by {q('trend', 2.0)} from the start of the record "
+            f"to its end (a linear trend); its ends sit {q('curvature')} above its "
+            f"middle (curvature); an S-shaped wander reaches {q('wander')} at the end "
+            "(its opposite at the start); the constant preload is the base's f0"
+        )
