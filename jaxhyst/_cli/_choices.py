@@ -8,7 +8,12 @@ from typing import NamedTuple
 import jax
 import numpy as np
 
-from .._diagnose._families import AbstractFamily, PiezoFamily, StructuralFamily
+from .._diagnose._families import (
+    AbstractFamily,
+    DamperFamily,
+    PiezoFamily,
+    StructuralFamily,
+)
 from .._models.base import AbstractHysteresisModel
 from .._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from .._models.damper import BoucWenDamper, SpencerDamper
@@ -172,6 +177,7 @@ PRESETS: dict[str, int] = {f"case{case}": case for case in (1, 2, 3, 4)}
 DIAGNOSE_FAMILIES: dict[str, Callable[[], AbstractFamily]] = {
     "piezo": PiezoFamily,
     "bouc-wen": StructuralFamily,
+    "mr-damper": DamperFamily,
 }
 
 
@@ -185,8 +191,9 @@ def family(name: str) -> AbstractFamily:
             else f"unknown model {name!r}"
         )
         raise ValueError(
-            f"--model {name}: {known}; use --model piezo (piezo actuators and stages) "
-            "or --model bouc-wen (structural cyclic tests: displacement -> force)."
+            f"--model {name}: {known}; use --model piezo (piezo actuators and stages), "
+            "--model bouc-wen (structural cyclic tests: displacement -> force) or "
+            "--model mr-damper (MR dampers: displacement and command -> force)."
         )
     return DIAGNOSE_FAMILIES[name]()
 

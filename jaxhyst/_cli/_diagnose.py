@@ -7,7 +7,7 @@ from pathlib import Path
 import jax
 
 from .._diagnose._diagnose import diagnose
-from .._diagnose._families import EFFECT_NAMES
+from .._diagnose._families import EFFECT_NAMES, DamperFamily
 from .._files import prepare_parent
 from .._model_files import EMBEDDED_KEY
 from .._plots import require_matplotlib
@@ -60,10 +60,13 @@ def add_parser(subparsers) -> None:
         default="piezo",
         metavar="NAME",
         help="the family: 'piezo' (default; PiezoBoucWen with asymmetry, input "
-        "bias, rate dependence, creep, dynamics, drift) or 'bouc-wen' (structural "
+        "bias, rate dependence, creep, dynamics, drift), 'bouc-wen' (structural "
         "cyclic tests, columns t,u,y = pseudo time, displacement, force: BoucWen with "
         "degradation, pinching, asymmetry, drift; the JSON then carries the matching "
-        "OpenSees material under 'opensees').",
+        "OpenSees material under 'opensees') or 'mr-damper' (MR dampers, columns "
+        "t,u,v,y = time, displacement, command, force, the inputs read as --input u "
+        "--input v unless given or saved in the file: BoucWenDamper with field "
+        "dependence, driver lag, roll-off, offset, asymmetry).",
     )
     add_swarm_options(parser, presets=False)
     parser.add_argument(
@@ -96,6 +99,22 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(run=run)
 
 
+def _load(args: argparse.Namespace, chosen) -> list[Recording]:
+    """The recordings; for the damper family, whose records carry a command beside
+    the displacement, the inputs default to the columns u then v where neither
+    --input nor the file names them."""
+    recordings = load_recordings(args)
+    if (
+        isinstance(chosen, DamperFamily)
+        and args.input is None
+        and not (args.no_time or args.no_header)
+        and any(r.num_inputs < 2 for r in recordings)
+    ):
+        args.input = ["u", "v"]
+        recordings = load_recordings(args)
+    return recordings
+
+
 def run(args: argparse.Namespace) -> int:
     chosen = family(args.model)
     swarm = diagnosis_swarm(args)
@@ -114,7 +133,7 @@ def run(args: argparse.Namespace) -> int:
     if plots is not None:
         check_folder("--plots", plots, DIAGNOSIS_FIGURES.values(), args.force)
         require_matplotlib()
-    recordings = load_recordings(args)
+    recordings = _load(args, chosen)
     # Several recordings are diagnosed as one specimen; the summary, figures and
     # report read their samples one after another (the joined record).
     recording = Recording.join(recordings)

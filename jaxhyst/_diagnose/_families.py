@@ -337,11 +337,13 @@ class DamperFamily(AbstractFamily):
     # The smallest yield displacement the base may take, as a share of the largest
     # displacement between two samples: sharper loops turn within a fraction of a
     # sample at peak velocity, which the record does not resolve. It sets the RK4
-    # substeps: the Bouc-Wen element relaxes at up to n*|xdot|/z_y (n <= 3), and
+    # substeps: the Bouc-Wen element relaxes at up to n*|xdot|/z_y, n <= `N_MAX`
+    # (published MR damper fits have n = 1 or 2; Spencer et al. fix 2), and
     # `PER_STEP` of that per substep leaves RK4 (stable to 2.8) room for refits
     # that sharpen the loop and for the internal dashpot's relaxation.
     YIELD_SHARE: ClassVar[float] = 0.25
     PER_STEP: ClassVar[float] = 1.5
+    N_MAX: ClassVar[float] = 2.0
 
     def check(self, recording):
         if recording.num_inputs < 2:
@@ -394,7 +396,7 @@ class DamperFamily(AbstractFamily):
             "f0": (-sy, sy),
             "beta": (1e-6 / floor, 0.5 / floor),
             "gamma": (1e-6 / floor, 0.5 / floor),
-            "n": (1.0, 3.0),
+            "n": (1.0, self.N_MAX),
         }
         return ParameterSpace(
             template, bounds, log_scale=["c0", "alpha", "beta", "gamma"]
@@ -402,7 +404,7 @@ class DamperFamily(AbstractFamily):
 
     def base_bounds(self, name, value):
         if name == "n":
-            return (1.0, 3.0)
+            return (1.0, self.N_MAX)
         return None
 
     def extend(self, base, recording):
@@ -411,8 +413,10 @@ class DamperFamily(AbstractFamily):
 
     def solver(self, recording):
         # Substeps such that a loop at the yield floor is integrated at `PER_STEP`
-        # per substep at the record's peak velocity: n*max|dx|/(z_min*substeps).
-        return RK4(substeps=math.ceil(3.0 / (self.YIELD_SHARE * self.PER_STEP)))
+        # per substep at the record's peak velocity: n*max|dx|/(z_min*substeps),
+        # 6 substeps. (The floor scales with max|dx|, so they do not depend on the
+        # record.)
+        return RK4(substeps=math.ceil(self.N_MAX / (self.YIELD_SHARE * self.PER_STEP)))
 
     def holdout(self, recording, fraction):
         return holdout_blocks(recording.num_samples, fraction)

@@ -14,7 +14,8 @@ normalisers set by `around` from the record, not fitted):
   internal dashpot of `rolloff` grows by the same factor as c0 (both are the
   fluid's viscous resistance); s = q/(1 + field_knee*q), q = |w|/command_scale
   (field_knee = 0: affine in the command; > 0: the field saturates, as the coil's
-  iron and the fluid's yield stress do);
+  iron and the fluid's yield stress do; < 0: it grows faster than affine, as the
+  yield stress does at low fields);
 - driver_lag: the field follows the command v through first-order dynamics,
   w' = (v - w)/command_lag (0: w = v), integrated exactly over each sample interval
   for a piecewise-linear command (`sample_update`);
@@ -195,7 +196,8 @@ class ExtendedDamper(AbstractHysteresisModel):
         if channels is None:  # read_command has already refused such a path
             raise ValueError("ExtendedDamper.drive: the path carries no command.")
         v_start = channels[0][interval]
-        return LaggedCommandDrive(x, xdot, v, vdot, v_start, frac * path.dt)
+        elapsed = jnp.asarray(frac, path.dt.dtype) * path.dt
+        return LaggedCommandDrive(x, xdot, v, vdot, v_start, elapsed)
 
     def _lagged(self, w_start, v_start, v, vdot, elapsed):
         """The field `elapsed` after the start of a sample interval where it was
@@ -210,23 +212,20 @@ class ExtendedDamper(AbstractHysteresisModel):
 
     def field_strength(self, w: Float[ArrayLike, ""]) -> Float[Array, ""]:
         """s = q/(1 + field_knee*q), q = |w|/command_scale: the field's effect at
-        filtered command w (q at field_knee = 0)."""
+        filtered command w (q at field_knee = 0; a negative knee grows faster than
+        affine, its denominator floored at 0.05 where it would vanish)."""
         level = jnp.abs(w) / self.command_scale
-        return level / (1 + self.field_knee * level)
+        return level / jnp.maximum(1 + self.field_knee * level, 0.05)
 
-    def _forces(self, z, w, xdot):
-        """(viscous force, hysteretic force, internal rate ydot) at hysteretic state
-        z, field w and piston velocity xdot: the forces c0 and the Bouc-Wen element
-        transmit through the internal dashpot (all of theirs when it is rigid)."""
-        s = self.smoothing
+    def _coefficients(self, w, xdot):
+        """(alpha, c0 without the field's growth, that growth, r = rolloff/
+        damping_scale) at field w and piston velocity xdot: the internal dashpot is
+        c1 = growth/r, so c0/c1 = r*c0 whatever the field."""
         strength = self.field_strength(w)
         alpha = self.alpha * (1 + self.field_alpha * strength)
         grows = 1 + self.field_damping * strength
-        c0 = self.c0 * grows * (1 + self.damping_skew * s.sign(xdot))
-        compliance = self.rolloff / (self.damping_scale * grows)
-        share = 1 / (1 + compliance * c0)
-        viscous, hysteretic = c0 * xdot * share, alpha * z * share
-        return viscous, hysteretic, compliance * (viscous + hysteretic)
+        c0 = self.c0 * (1 + self.damping_skew * self.smoothing.sign(xdot))
+        return alpha, c0, grows, self.rolloff / self.damping_scale
 
     def _gamma(self, z):
         return self.gamma + self.skew * (self.beta + self.gamma) * self.smoothing.sign(
@@ -235,13 +234,15 @@ class ExtendedDamper(AbstractHysteresisModel):
 
     # The drive is the one this model's `drive` returns.
     def vector_field(self, t, state, drive: LaggedCommandDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
-        z = state[0]
+        z, xdot = state[0], drive.udot
         w = self._lagged(state[1], drive.v_start, drive.v, drive.vdot, drive.elapsed)
-        _, _, ydot = self._forces(z, w, drive.udot)
+        alpha, c0, grows, r = self._coefficients(w, xdot)
+        # ydot = (alpha*z + c0*grows*xdot)/(c0*grows + c1), c1 = grows/r.
+        ydot = r * (alpha * z / grows + c0 * xdot) / (1 + r * c0)
         zdot = hysteretic_rate(
             self.smoothing,
             z,
-            drive.udot - ydot,
+            xdot - ydot,
             self.A,
             self.beta,
             self._gamma(z),
@@ -268,14 +269,17 @@ class ExtendedDamper(AbstractHysteresisModel):
         return update
 
     def output(self, t, state, drive):
-        viscous, hysteretic, _ = self._forces(state[0], state[1], drive.udot)
+        xdot = drive.udot
+        alpha, c0, grows, r = self._coefficients(state[1], xdot)
+        # The block (Bouc-Wen element beside c0) transmits c1*ydot =
+        # (alpha*z + c0*xdot)/(1 + c0/c1); summed in `BoucWenDamper.output`'s order,
+        # so that with every effect off the sums round alike.
+        share = 1 / (1 + r * c0)
         s = (t - self.time_center) / self.time_scale
-        # In `BoucWenDamper.output`'s order, so that with every effect off the sums
-        # round alike.
         return (
-            viscous
+            c0 * grows * xdot * share
             + self.k0 * (drive.u - self.x0)
-            + hysteretic
+            + alpha * state[0] * share
             + self.f0
             + self.trend * s
             + self.curvature * (s**2 - 1.0 / 3.0)

@@ -2,21 +2,30 @@
 
 The diagnosis has to be proven on records where an effect is *concealed* (it changes
 the output by only a few noise sigmas) and on clean records, where nothing may be
-named. These generators make such records for both families, with truth forms that
+named. These generators make such records for every family, with truth forms that
 differ from the diagnosis catalogue's own equations, and effect names taken from the
-catalogue (`jh.EFFECT_NAMES`, `jh.STRUCTURAL_EFFECT_NAMES`):
+catalogue (`jh.EFFECT_NAMES`, `jh.STRUCTURAL_EFFECT_NAMES`, `jh.DAMPER_EFFECT_NAMES`):
 
 - piezo: `concealed_recording` (under `rich_excitation`), `practical_recording`
   (under a plain drive: `SineExcitation`, `SwitchOnSine`) and `demo_recording`, each
   a `ConcealedCase` made by a `ConcealedTruth` around `base_truth`;
 - structural: `structural_recording` under a `loading_protocol`, a `StructuralCase`
-  made by a `StructuralTruth` around `structural_base_truth`.
+  made by a `StructuralTruth` around `structural_base_truth`;
+- MR damper: `damper_recording` (a white-noise test: random displacement, random
+  piecewise-constant command), a `DamperCase` made by a `DamperTruth`
+  (`jh.DAMPER_EFFECT_NAMES`, forms in `DAMPER_FORMS`).
 """
 
 from ._cases import (
     ConcealedCase as ConcealedCase,
     concealed_recording as concealed_recording,
     practical_recording as practical_recording,
+)
+from ._damper import (
+    DAMPER_FORMS as DAMPER_FORMS,
+    DamperCase as DamperCase,
+    DamperTruth as DamperTruth,
+    damper_recording as damper_recording,
 )
 from ._demo import demo_recording as demo_recording
 from ._excitation import (

@@ -1,5 +1,6 @@
 """Field dependence: the damper's force parameters follow the command."""
 
+import math
 from typing import ClassVar
 
 from .base import (
@@ -10,6 +11,11 @@ from .base import (
     contrast,
     fitted,
 )
+
+
+# The knee is named (saturating or faster than affine) only beyond this many
+# standard errors from zero.
+SETTLED = 2.0
 
 
 class FieldDependence(AbstractEffect):
@@ -38,7 +44,7 @@ class FieldDependence(AbstractEffect):
         if name in ("field_alpha", "field_damping"):
             return (-0.9, 100.0)
         if name == "field_knee":
-            return (0.0, 20.0)
+            return (-0.5, 20.0)
         return None
 
     def starting_points(self, current, step, scales):
@@ -78,15 +84,20 @@ class FieldDependence(AbstractEffect):
         def percent(name):
             return fitted(values, errors, units, name, 100.0, "%")
 
-        knee = values["field_knee"]
-        if knee == 0:
-            form = "affine in the command (field_knee = 0)"
-        else:
-            # s = q/(1 + knee*q), q the command over its peak: at the peak the
-            # field acts at 1/(1 + knee) of an affine growth.
+        knee, error = values["field_knee"], errors.get("field_knee", math.nan)
+        if not (math.isfinite(error) and abs(knee) > SETTLED * error):
             form = (
-                f"saturating: at the peak command the field acts at "
-                f"{1 / (1 + knee):.0%} of an affine growth (field_knee = "
+                "affine in the command (field_knee = "
+                f"{fitted(values, errors, units, 'field_knee')}, within "
+                f"{SETTLED:g} standard errors of 0 or not determined)"
+            )
+        else:
+            # s = q/(1 + knee*q), q the command over its peak: at the peak the field
+            # acts at 1/(1 + knee) of an affine growth.
+            kind = "saturating" if knee > 0 else "growing faster than affine"
+            form = (
+                f"{kind}: at the peak command the field acts at {1 / (1 + knee):.0%} "
+                f"of an affine growth (field_knee = "
                 f"{fitted(values, errors, units, 'field_knee')})"
             )
         return (

@@ -7,7 +7,6 @@ from .base import (
     RefitScales,
     concentration,
     conclude,
-    contrast,
     fitted,
 )
 
@@ -47,13 +46,11 @@ class Rolloff(AbstractEffect):
                     "near velocity reversals",
                     "where a series dashpot rolls the force off",
                 ),
-                contrast(
-                    where,
-                    "approaching_reversals",
-                    "leaving_reversals",
-                    "its RMS while decelerating into a reversal is {ratio:.2f}x "
-                    "that while accelerating out of one (Spencer et al.'s roll-off "
-                    "region: velocity and acceleration of opposite signs)",
+                concentration(
+                    where, "approaching_reversals", "while decelerating into a reversal"
+                ),
+                concentration(
+                    where, "leaving_reversals", "while accelerating out of a reversal"
                 ),
             ]
         )
