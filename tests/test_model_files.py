@@ -102,13 +102,33 @@ def _every_model() -> dict[str, jh.AbstractHysteresisModel]:
         "SpencerDamper": jh.SpencerDamper.spencer_1997(
             smoothing=jh.AlgebraicSign(1e-2)
         ).replace(x0=14.3 + 1e-9),
+        "ExtendedDamper": jh.ExtendedDamper.around(
+            jh.BoucWenDamper(25.0, 40.0, 0.3, 900.0, -12.0, 1.0, 150.0, 110.0, 1.6),
+            jh.InputPath(
+                0.0, 1e-3, np.sin(np.arange(50) / 8.0), channels=np.ones((1, 50))
+            ),
+            300.0,
+        ).replace(
+            field_alpha=0.8,
+            field_damping=0.3,
+            field_knee=0.4,
+            command_lag=0.01,
+            rolloff=0.05,
+            trend=2.0,
+            skew=0.1,
+            damping_skew=-0.05,
+        ),
     }
 
 
 def _package_model_classes() -> set[str]:
     """Every concrete model class defined in jaxhyst._models."""
     found = set()
-    modules = ("base", "bouc_wen", "damper", "extended", "oscillator", "structural")
+    import pkgutil
+
+    import jaxhyst._models
+
+    modules = [m.name for m in pkgutil.iter_modules(jaxhyst._models.__path__)]
     for module in modules:
         mod = importlib.import_module(f"jaxhyst._models.{module}")
         for name, obj in vars(mod).items():
