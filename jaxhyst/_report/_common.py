@@ -91,9 +91,10 @@ def final_label(diagnosis: Diagnosis) -> str:
 
 def base_label(diagnosis: Diagnosis) -> str:
     """The base model as the summary names it."""
-    return {"piezo": "quasi-static piezo model (eq. 7-8)"}.get(
-        diagnosis.base_name, f"{diagnosis.base_name} model (eq. 1-2)"
-    )
+    return {
+        "piezo": "quasi-static piezo model (eq. 7-8)",
+        "mr-damper": "MR damper model of fixed field (BoucWenDamper)",
+    }.get(diagnosis.base_name, f"{diagnosis.base_name} model (eq. 1-2)")
 
 
 def fitted_share(diagnosis: Diagnosis) -> str:
