@@ -18,7 +18,7 @@ from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._inputs import InputPath
 from .._recording import Recording
-from .._smoothing import AbstractSmoothing
+from .._smoothing import AbstractSmoothing, ExactSign
 
 
 def as_parameter(value: ArrayLike) -> Array:
@@ -32,6 +32,12 @@ def as_parameter(value: ArrayLike) -> Array:
     if not jnp.issubdtype(array.dtype, jnp.inexact):
         array = array.astype(jnp.result_type(float))
     return jnp.asarray(array, dtype=array.dtype)
+
+
+def smoothing_field():
+    """The `smoothing` field of a model: keyword-only, `ExactSign` by default (the
+    paper's sign; pass a smoothing rule where gradients cross reversals)."""
+    return eqx.field(default_factory=ExactSign, kw_only=True)
 
 
 class Drive(eqx.Module):

@@ -18,11 +18,8 @@ from .base import (
     as_parameter,
     hysteretic_rate,
     read_input,
+    smoothing_field,
 )
-
-
-def _smoothing_field():
-    return eqx.field(default_factory=ExactSign, kw_only=True)
 
 
 def _piezo_box(
@@ -75,7 +72,7 @@ class BoucWen(AbstractHysteresisModel):
     beta: Float[Array, ""] = eqx.field(converter=as_parameter)
     gamma: Float[Array, ""] = eqx.field(converter=as_parameter)
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
-    smoothing: AbstractSmoothing = _smoothing_field()
+    smoothing: AbstractSmoothing = smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k",
@@ -148,7 +145,7 @@ class PiezoBoucWen(AbstractHysteresisModel):
     beta1: Float[Array, ""] = eqx.field(converter=as_parameter)
     gamma1: Float[Array, ""] = eqx.field(converter=as_parameter)
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
-    smoothing: AbstractSmoothing = _smoothing_field()
+    smoothing: AbstractSmoothing = smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k1",
@@ -234,7 +231,7 @@ class CorrectedPiezoBoucWen(AbstractHysteresisModel):
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
     phi: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     eps: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
-    smoothing: AbstractSmoothing = _smoothing_field()
+    smoothing: AbstractSmoothing = smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k1",
@@ -312,7 +309,7 @@ class PiezoStage(AbstractHysteresisModel):
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
     natural_frequency: Float[Array, ""] = eqx.field(converter=as_parameter)
     damping_ratio: Float[Array, ""] = eqx.field(converter=as_parameter)
-    smoothing: AbstractSmoothing = _smoothing_field()
+    smoothing: AbstractSmoothing = smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k1",

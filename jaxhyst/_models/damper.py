@@ -26,11 +26,8 @@ from .base import (
     as_parameter,
     hysteretic_rate,
     read_input,
+    smoothing_field,
 )
-
-
-def _smoothing_field():
-    return eqx.field(default_factory=ExactSign, kw_only=True)
 
 
 class DamperDrive(Drive):
@@ -139,7 +136,7 @@ class BoucWenDamper(AbstractHysteresisModel):
     beta: Float[Array, ""] = eqx.field(converter=as_parameter)
     gamma: Float[Array, ""] = eqx.field(converter=as_parameter)
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
-    smoothing: AbstractSmoothing = _smoothing_field()
+    smoothing: AbstractSmoothing = smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "c0",
@@ -270,7 +267,7 @@ class SpencerDamper(AbstractHysteresisModel):
     gamma: Float[Array, ""] = eqx.field(converter=as_parameter)
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
     eta: Float[Array, ""] = eqx.field(converter=as_parameter)
-    smoothing: AbstractSmoothing = _smoothing_field()
+    smoothing: AbstractSmoothing = smoothing_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "c0a",
