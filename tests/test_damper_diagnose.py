@@ -262,6 +262,37 @@ def test_a_clean_record_names_nothing():
     assert diagnosis.final_rmse < 1.1 * case.sigma
 
 
+@pytest.mark.slow  # 62 s; the several-recordings path has a fast piezo test
+def test_several_records_of_one_damper_are_diagnosed_as_one():
+    # Two tests of one damper (same base, other excitations): one model for both,
+    # each simulated from rest.
+    first = jh.synthetic.damper_recording(
+        ("field_dependence",), key=jax.random.key(0), duration=0.5, size_sigmas=30.0
+    )
+    path = _path(duration=0.5, seed=3)
+    second = jh.Recording(
+        np.asarray(path.times),
+        np.asarray(path.values),
+        np.asarray(jh.simulate(first.truth, path, first.solver))
+        + first.sigma * np.random.default_rng(1).standard_normal(path.num_samples),
+        name="second",
+        input_unit="cm",
+        output_unit="N",
+        more_inputs={"command": _command(path)},
+        more_input_units={"command": "V"},
+    )
+    diagnosis = jh.diagnose(
+        [first.recording, second],
+        key=jax.random.key(0),
+        family=jh.DamperFamily(),
+        swarm=QUICK_SWARM,
+        policy=QUICK_POLICY,
+    )
+    assert diagnosis.effects == ("field_dependence",)
+    for errors in diagnosis.per_recording:
+        assert errors.final["rmse"] < 1.3 * first.sigma
+
+
 def test_synthetic_damper_cases():
     key = jax.random.key(4)
     clean = jh.synthetic.damper_recording((), key=key, duration=0.5)
