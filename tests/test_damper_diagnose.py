@@ -227,7 +227,7 @@ QUICK_SWARM = jh.MPSO(num_particles=48, num_iterations=60)
 
 
 def test_a_large_concealed_field_dependence_is_named():
-    # 0.8 s at 3 kHz (2400 samples); measured 45 s on 2 cores.
+    # 0.8 s at 3 kHz (2400 samples); measured 40 s on 2 cores.
     case = jh.synthetic.damper_recording(
         ("field_dependence",), key=jax.random.key(0), duration=0.8, size_sigmas=30.0
     )
@@ -249,7 +249,7 @@ def test_a_large_concealed_field_dependence_is_named():
 
 
 def test_a_clean_record_names_nothing():
-    # Measured 10 s.
+    # Measured 9 s alone (3 s after the test above, its programs compiled).
     case = jh.synthetic.damper_recording((), key=jax.random.key(0), duration=0.8)
     diagnosis = jh.diagnose(
         case.recording,

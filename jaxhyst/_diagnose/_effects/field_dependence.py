@@ -81,10 +81,16 @@ class FieldDependence(AbstractEffect):
         return dict.fromkeys(self.parameters, "1")
 
     def reading(self, values, errors, units):
-        def percent(name):
-            return fitted(values, errors, units, name, 100.0, "%")
-
+        # s = q/(1 + knee*q), q the command over the record's peak |command|: at
+        # the peak the field acts at s = 1/(1 + knee) of an affine growth, so alpha
+        # grows there by field_alpha/(1 + knee) (the error quoted is the gain's,
+        # scaled alike).
         knee, error = values["field_knee"], errors.get("field_knee", math.nan)
+        at_peak = 1 / max(1 + knee, 0.05)
+
+        def percent(name):
+            return fitted(values, errors, units, name, 100.0 * at_peak, "%")
+
         if not (math.isfinite(error) and abs(knee) > SETTLED * error):
             form = (
                 "affine in the command (field_knee = "
@@ -92,12 +98,10 @@ class FieldDependence(AbstractEffect):
                 f"{SETTLED:g} standard errors of 0 or not determined)"
             )
         else:
-            # s = q/(1 + knee*q), q the command over its peak: at the peak the field
-            # acts at 1/(1 + knee) of an affine growth.
             kind = "saturating" if knee > 0 else "growing faster than affine"
             form = (
-                f"{kind}: at the peak command the field acts at {1 / (1 + knee):.0%} "
-                f"of an affine growth (field_knee = "
+                f"{kind}: at the peak command the field acts at {at_peak:.0%} of an "
+                f"affine growth (field_knee = "
                 f"{fitted(values, errors, units, 'field_knee')})"
             )
         return (
