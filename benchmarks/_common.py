@@ -538,3 +538,24 @@ def score_suite(
     report["summary"] = summary
     report["confusion"] = {"rows": rows, "columns": columns, "counts": table}
     return summary
+
+
+def print_summary(
+    summary: dict, report: dict, residual_factor: float, *, width: int, over: str
+) -> None:
+    """`score_suite`'s figures and confusion matrix, as every suite prints them
+    (`over`: the cases the residual fraction counts, e.g. "effect cases")."""
+    print()
+    print(f"exact-set accuracy (effect cases): {summary['exact_set_accuracy']:.1%}")
+    for protocol, part in summary.get("by_protocol", {}).items():
+        print(f"  {protocol:<10} {part['exact']:.1%} of {part['effect_cases']}")
+    print(f"true-effect recall:                {summary['true_effect_recall']:.1%}")
+    print(f"clean cases with no finding:       {summary['clean_no_finding_rate']:.1%}")
+    print(
+        f"final residual <= {residual_factor} sigma ({over}): "
+        f"{summary['final_within_1.3_sigma']:.1%} "
+        f"(median {summary['median_final_over_sigma']:.2f} sigma, all cases)"
+    )
+    print(f"median seconds per recording:      {summary['median_seconds']:.1f}")
+    print()
+    print_confusion(report["confusion"], width=width)

@@ -166,20 +166,9 @@ def main(argv=None) -> int:
         summary = common.score_suite(
             report, EFFECTS, RESIDUAL_FACTOR, effect_cases_only=False
         )
-        print()
-        print(f"exact-set accuracy (effect cases): {summary['exact_set_accuracy']:.1%}")
-        print(f"true-effect recall:                {summary['true_effect_recall']:.1%}")
-        print(
-            f"clean cases with no finding:       {summary['clean_no_finding_rate']:.1%}"
+        common.print_summary(
+            summary, report, RESIDUAL_FACTOR, width=9, over="all cases"
         )
-        print(
-            f"final residual <= {RESIDUAL_FACTOR} sigma:       "
-            f"{summary['final_within_1.3_sigma']:.1%} "
-            f"(median {summary['median_final_over_sigma']:.2f} sigma)"
-        )
-        print(f"median seconds per recording:      {summary['median_seconds']:.1f}")
-        print()
-        common.print_confusion(report["confusion"], width=9)
     return common.finish_suite(report, args.json)
 
 

@@ -205,22 +205,9 @@ def main(argv=None) -> int:
     report = common.suite_report(config, env, results)
     if diagnose is not None:
         summary = summarise(report)
-        print()
-        print(f"exact-set accuracy (effect cases): {summary['exact_set_accuracy']:.1%}")
-        for protocol, part in summary["by_protocol"].items():
-            print(f"  {protocol:<10} {part['exact']:.1%} of {part['effect_cases']}")
-        print(f"true-effect recall:                {summary['true_effect_recall']:.1%}")
-        print(
-            f"clean cases with no finding:       {summary['clean_no_finding_rate']:.1%}"
+        common.print_summary(
+            summary, report, RESIDUAL_FACTOR, width=11, over="effect cases"
         )
-        print(
-            f"final residual <= {RESIDUAL_FACTOR} sigma (effect cases): "
-            f"{summary['final_within_1.3_sigma']:.1%} "
-            f"(median {summary['median_final_over_sigma']:.2f} sigma, all cases)"
-        )
-        print(f"median seconds per recording:      {summary['median_seconds']:.1f}")
-        print()
-        common.print_confusion(report["confusion"], width=11)
     return common.finish_suite(report, args.json, " (the first includes compilation)")
 
 

@@ -18,6 +18,7 @@ from ._datasets import (
     default_data_dir as default_data_dir,
     load_bouc_wen_benchmark as load_bouc_wen_benchmark,
     load_mr_damper as load_mr_damper,
+    load_mr_damper_sine as load_mr_damper_sine,
     load_piezo_actuator as load_piezo_actuator,
     load_structural_test as load_structural_test,
 )
@@ -54,11 +55,17 @@ from ._diagnose._locate import locate as locate, locate_cycles as locate_cycles
 from ._diagnose._policy import AdoptionPolicy as AdoptionPolicy
 from ._diagnose._results import (
     Diagnosis as Diagnosis,
+    DiagnosisStep as DiagnosisStep,
     Finding as Finding,
+    NotShown as NotShown,
     RecordingErrors as RecordingErrors,
     Score as Score,
     Unexplained as Unexplained,
     Validation as Validation,
+)
+from ._evaluate import (
+    default_solver as default_solver,
+    predict as predict,
 )
 from ._export_c import export_c as export_c
 from ._identification._corrected import (

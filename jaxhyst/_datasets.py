@@ -361,6 +361,49 @@ def load_mr_damper(
     )
 
 
+_SINE_DAMPER_DIR = Path("mr_damper_labcontrol_utfpr")
+_SINE_DAMPER_SOURCE = (
+    "download data/<name>.mat from GitHub labcontrol-data/mr-damper (A. N. Vargas, "
+    "Zenodo doi:10.5281/zenodo.4445334)"
+)
+
+
+def load_mr_damper_sine(
+    name: str, *, data_dir: str | os.PathLike | None = None
+) -> Recording:
+    """A measured sine test of an MR damper on a small shaking table (Labcontrol,
+    UTFPR; MIT licence): displacement [mm] -> force [N], `name` the file's stem
+    (e.g. "ensaio1.1"; 751 to 3001 samples at 50-100 Hz, 0.8-2.4 Hz sines).
+
+    The coil's voltage or current is not recorded (the tests ran at undocumented
+    settings), so the recording has one input; for the damper diagnosis, add the
+    setting as a constant command (`rec.with_input("command", 0.0)`): the diagnosis
+    then says that the field's effects cannot show on such a record. The files'
+    velocity column is not used (the model derives it from the displacement).
+    Raises `ValueError` for a name with a path in it and `FileNotFoundError`,
+    saying where to get the file, when it is missing."""
+    if not name or Path(name).name != name or name.endswith(".mat"):
+        raise ValueError(
+            f"load_mr_damper_sine: name {name!r} must be a file stem such as "
+            "'ensaio1.1' (no folder, no '.mat')."
+        )
+    import scipy.io
+
+    path = _locate(data_dir, _SINE_DAMPER_DIR / f"{name}.mat", _SINE_DAMPER_SOURCE)
+    data = scipy.io.loadmat(path, variable_names=["x_F", "Ts"])
+    columns, step = np.asarray(data["x_F"], float), float(np.ravel(data["Ts"])[0])
+    return Recording(
+        step * np.arange(columns.shape[0]),
+        columns[:, 0],
+        columns[:, 2],
+        name=f"mr_damper_sine_{name}",
+        input_name="displacement",
+        output_name="force",
+        input_unit="mm",
+        output_unit="N",
+    )
+
+
 def load_structural_test(
     name: str, *, data_dir: str | os.PathLike | None = None
 ) -> Recording:

@@ -366,6 +366,41 @@ class Recording(eqx.Module):
         """A copy with the output replaced by `y` (e.g. a simulated output)."""
         return self._replace(self.t, self.u, y)
 
+    def with_input(
+        self, name: str, values: float | Float[ArrayLike, " n"], *, unit: str = ""
+    ) -> "Recording":
+        """A copy with one more input `name` after the others: `values` per sample,
+        or one number for an input held constant through the test (a damper tested
+        at one coil current: `rec.with_input("command", 1.5, unit="V")`). Raises
+        `RecordingError` if the name is taken or the length differs."""
+        if name in (self.input_name, self.output_name, *self.more_input_names):
+            raise RecordingError(
+                f"Recording.with_input: {self.name!r} already has a column named "
+                f"{name!r}; pick another name."
+            )
+        column = np.asarray(values, dtype=np.float64)
+        if column.ndim == 0:
+            column = np.full(self.num_samples, float(column))
+        return Recording(
+            self.t,
+            self.u,
+            self.y,
+            name=self.name,
+            input_name=self.input_name,
+            output_name=self.output_name,
+            input_unit=self.input_unit,
+            output_unit=self.output_unit,
+            time_unit=self.time_unit,
+            more_inputs={
+                **dict(zip(self.more_input_names, self.more_inputs)),
+                name: column,
+            },
+            more_input_units={
+                **dict(zip(self.more_input_names, self.more_input_units)),
+                name: unit,
+            },
+        )
+
     @classmethod
     def join(cls, recordings: Sequence["Recording"]) -> "Recording":
         """Several recordings' samples one after another, as one recording named

@@ -262,6 +262,44 @@ def test_a_clean_record_names_nothing():
     assert diagnosis.final_rmse < 1.1 * case.sigma
 
 
+def test_a_record_at_one_command_says_what_it_cannot_show(tmp_path):
+    # A damper tested at one coil current: the field's effects are not asked about,
+    # and the report says why. Each step's model reproduces the step's error.
+    case = jh.synthetic.damper_recording((), key=jax.random.key(0), duration=0.8)
+    rec = case.recording
+    single = jh.Recording(
+        rec.t, rec.u, rec.y, input_unit="cm", output_unit="N", name="one current"
+    )
+    with pytest.raises(ValueError, match="with_input"):
+        jh.diagnose(single, key=jax.random.key(0), family=jh.DamperFamily())
+    held = single.with_input("command", 1.2, unit="V")
+    diagnosis = jh.diagnose(
+        held,
+        key=jax.random.key(0),
+        family=jh.DamperFamily(),
+        swarm=QUICK_SWARM,
+        policy=QUICK_POLICY,
+    )
+    report = diagnosis.to_dict()
+    assert [n["effect"] for n in report["cannot_show"]] == [
+        "field_dependence",
+        "driver_lag",
+    ]
+    assert "constant (1.2 V)" in report["cannot_show"][0]["reason"]
+    scored = {c["effect"] for round_ in report["candidates"] for c in round_}
+    assert scored and not scored & {"field_dependence", "driver_lag"}
+    assert "not asked: field_dependence: the command" in jh.diagnosis_summary(
+        diagnosis, held
+    )
+    markdown = jh.diagnosis_markdown(diagnosis, held, tmp_path / "report.md", {})
+    assert "What this record cannot show" in markdown
+    for step in diagnosis.steps:
+        assert step.model is not None
+        predicted = jh.predict(step.model, held)
+        rmse = float(np.sqrt(np.mean((np.asarray(held.y) - predicted) ** 2)))
+        np.testing.assert_allclose(rmse, step.rmse, rtol=1e-6)
+
+
 @pytest.mark.slow  # 62 s; the several-recordings path has a fast piezo test
 def test_several_records_of_one_damper_are_diagnosed_as_one():
     # Two tests of one damper (same base, other excitations): one model for both,
@@ -343,3 +381,47 @@ def test_diagnose_mr_damper_on_the_command_line(tmp_path, capsys):
     # Naming one input reads no command: refused, with the fix.
     assert main(["diagnose", str(path), "--model", "mr-damper", "--input", "u"]) == 2
     assert "--input u --input v" in capsys.readouterr().err
+
+
+def test_command_level_on_the_command_line(tmp_path, capsys, monkeypatch):
+    # A sine test at one coil current has no command column: --command-level adds it
+    # as a constant; it is refused where a command exists or for another family.
+    from jaxhyst._cli import _diagnose as cli_diagnose
+
+    case = jh.synthetic.damper_recording((), key=jax.random.key(0), duration=0.3)
+    r = case.recording
+    path = tmp_path / "sine.csv"
+    np.savetxt(
+        path,
+        np.stack([r.t, r.u, r.y], axis=1),
+        delimiter=",",
+        header="t,u,y",
+        comments="",
+    )
+    seen = []
+
+    def stop(recording, **_):
+        seen.append(recording)
+        raise ValueError("stopped before the diagnosis")
+
+    monkeypatch.setattr(cli_diagnose, "diagnose", stop)
+    argv = ["diagnose", str(path), "--model", "mr-damper", "--command-level", "1.5"]
+    assert main(argv) == 2
+    assert "stopped before the diagnosis" in capsys.readouterr().err
+    (recording,) = seen
+    assert recording.input_names == ("u", "command")
+    np.testing.assert_array_equal(recording.more_input("command"), 1.5)
+    np.testing.assert_array_equal(recording.u, r.u)
+    both = tmp_path / "both.csv"
+    np.savetxt(
+        both,
+        np.stack([r.t, r.u, r.more_inputs[0], r.y], axis=1),
+        delimiter=",",
+        header="t,u,v,y",
+        comments="",
+    )
+    argv = ["diagnose", str(both), "--model", "mr-damper", "--input", "u"]
+    assert main([*argv, "--input", "v", "--command-level", "1.5"]) == 2
+    assert "already has a command column ('v')" in capsys.readouterr().err
+    assert main(["diagnose", str(path), "--command-level", "1.5"]) == 2
+    assert "--command-level is for --model mr-damper" in capsys.readouterr().err

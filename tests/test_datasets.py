@@ -211,3 +211,28 @@ def test_timber_clt_wall_drops_the_quiet_lead_in():
     # cycles buried in that noise start.
     assert np.ptp(raw[:8300, 0]) < 0.5e-3
     assert np.ptp(recording.u) > 0.3
+
+
+@pytest.mark.skipif(
+    not (_data_dir() / "mr_damper_labcontrol_utfpr").is_dir(),
+    reason="Labcontrol MR damper tests not available (set JAXHYST_DATA_DIR)",
+)
+def test_mr_damper_sine_tests():
+    rec = jh.load_mr_damper_sine("ensaio1.1")
+    assert rec.num_samples == 3001 and rec.dt == pytest.approx(0.01)
+    assert (rec.input_unit, rec.output_unit) == ("mm", "N")
+    assert rec.input_names == ("displacement",)
+    # The displacement is the file's first column, the force its third.
+    assert 20 < np.ptp(rec.u) < 30 and 200 < np.ptp(rec.y) < 300
+
+
+def test_mr_damper_sine_names_and_missing_files(tmp_path):
+    with pytest.raises(ValueError, match="file stem"):
+        jh.load_mr_damper_sine("data/ensaio1.1.mat")
+    with pytest.raises(FileNotFoundError) as info:
+        jh.load_mr_damper_sine("ensaio1.1", data_dir=tmp_path)
+    message = str(info.value)
+    assert (
+        "labcontrol-data/mr-damper" in message
+        and "mr_damper_labcontrol_utfpr" in message
+    )

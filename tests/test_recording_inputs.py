@@ -182,3 +182,20 @@ def test_command_line_fits_a_two_input_damper_model(tmp_path, capsys):
     assert main([*common, "--input", "x"]) == 2
     err = capsys.readouterr().err
     assert "reads 2 inputs" in err and "--input u --input v" in err
+
+
+def test_with_input_adds_a_constant_or_a_column():
+    r = _damper_like()
+    held = r.with_input("temperature", 21.5, unit="C")
+    assert held.input_names == ("x", "v", "temperature")
+    assert held.more_input_units == ("V", "C")
+    np.testing.assert_array_equal(held.more_input("temperature"), 21.5)
+    np.testing.assert_array_equal(held.more_input("v"), r.more_input("v"))
+    column = np.linspace(0, 1, r.num_samples)
+    np.testing.assert_array_equal(r.with_input("w", column).more_input("w"), column)
+    # The original is unchanged.
+    assert r.input_names == ("x", "v")
+    with pytest.raises(jh.RecordingError, match="already has a column named 'v'"):
+        r.with_input("v", 1.0)
+    with pytest.raises(jh.RecordingError, match="length mismatch"):
+        r.with_input("w", column[:-1])

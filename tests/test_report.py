@@ -17,7 +17,7 @@ import pytest
 import jaxhyst as jh
 from jaxhyst import PiezoFamily
 from jaxhyst._diagnose._remainder import remainder
-from jaxhyst._diagnose._results import Advice, Ambiguity, Rival, Step
+from jaxhyst._diagnose._results import Advice, Ambiguity, DiagnosisStep, Rival
 from jaxhyst._models.extended import ExtendedPiezo
 from jaxhyst._report import (
     DIAGNOSIS_FIGURES,
@@ -146,8 +146,10 @@ def diagnosis(recording):
         ],
         advice=[Advice(("asymmetry", "rate_dependence"), "a made-up test", 6.5, 0.8)],
         steps=[
-            Step("piezo fitted", baseline["rmse"], 0.01),
-            Step("asymmetry added (refit on the fitted samples)", final["rmse"], 0.002),
+            DiagnosisStep("piezo fitted", baseline["rmse"], 0.01),
+            DiagnosisStep(
+                "asymmetry added (refit on the fitted samples)", final["rmse"], 0.002
+            ),
         ],
         noise_sigma=2e-3,
         noise={"sigma": 2e-3, "lag1_autocorrelation": 0.01, "effective_samples": 500.0},

@@ -40,13 +40,18 @@ from ._outputs import (
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "diagnose",
-        help="find the physics a piezo model leaves out of a recording; summary, "
-        "JSON, figures, Markdown and HTML report",
+        help="find the physics a model leaves out of a recording (piezo, "
+        "structural or MR damper family); summary, JSON, figures, Markdown and HTML "
+        "report",
         description=(
-            "Fit the quasi-static piezo model (eq. 7-8) on part of a recording, score "
-            "every catalogue effect (" + ", ".join(EFFECT_NAMES) + ") on its residual, "
+            "Fit the family's base model (--model: the quasi-static piezo model of "
+            "eq. 7-8, the structural Bouc-Wen element or the MR damper of fixed "
+            "field) on part of a recording, score every catalogue effect on its "
+            "residual (piezo: " + ", ".join(EFFECT_NAMES) + "), "
             "refit the strongest, and keep an effect only if it lowers the error on "
-            "held-out data by more than the noise; repeat. Prints the findings with "
+            "held-out data by more than the noise; repeat. Effects the record cannot "
+            "show (a damper tested at one command) are not asked about, and the "
+            "report says why. Prints the findings with "
             "their evidence, the RMSE before/after and any ambiguities; --json, "
             "--plots and --report save them. Several recordings of one specimen (same "
             "units and sample rate) are diagnosed as one: one model, held-out data "
@@ -67,6 +72,15 @@ def add_parser(subparsers) -> None:
         "t,u,v,y = time, displacement, command, force, the inputs read as --input u "
         "--input v unless given or saved in the file: BoucWenDamper with field "
         "dependence, driver lag, roll-off, offset, asymmetry).",
+    )
+    parser.add_argument(
+        "--command-level",
+        type=float,
+        default=None,
+        metavar="V",
+        help="--model mr-damper only: the records have no command column because the "
+        "test ran at one fixed command; V is that level (the field's effects are then "
+        "not asked about, and the report says why).",
     )
     add_swarm_options(parser, presets=False)
     parser.add_argument(
@@ -103,6 +117,20 @@ def _load(args: argparse.Namespace, chosen) -> list[Recording]:
     """The recordings; for the damper family, whose records carry a command beside
     the displacement, the inputs default to the columns u then v where neither
     --input nor the file names them."""
+    if args.command_level is not None:
+        if not isinstance(chosen, DamperFamily):
+            raise ValueError(
+                f"--command-level is for --model mr-damper, not --model {args.model}; "
+                "drop it."
+            )
+        recordings = load_recordings(args)
+        for each in recordings:
+            if each.num_inputs > 1:
+                raise ValueError(
+                    f"--command-level: {each.name} already has a command column "
+                    f"({each.input_names[1]!r}); drop --command-level to use it."
+                )
+        return [r.with_input("command", args.command_level) for r in recordings]
     recordings = load_recordings(args)
     if (
         isinstance(chosen, DamperFamily)

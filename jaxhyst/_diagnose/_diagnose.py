@@ -42,11 +42,12 @@ from ._results import (
     Advice,
     Ambiguity,
     Diagnosis,
+    DiagnosisStep,
     Finding,
+    NotShown,
     RecordingErrors,
     Rival,
     Score,
-    Step,
     Unexplained,
     Validation,
 )
@@ -81,6 +82,8 @@ class _Context(eqx.Module):
     sample_rate: float
     duration: float
     progress: Progress
+    # Catalogue effects the record cannot show (never scored), with the reason.
+    hidden: dict[str, str]
 
 
 class _Trial(eqx.Module):
@@ -105,7 +108,7 @@ class _State(eqx.Module):
     ambiguities: tuple[Ambiguity, ...] = ()
     rounds: tuple[list[Score], ...] = ()
     # The models moved to, in order (the report's RMSE chain).
-    steps: tuple[Step, ...] = ()
+    steps: tuple[DiagnosisStep, ...] = ()
     # Each effect's latest trial that passed held-out validation, with where the
     # mismatch was then: the rivals every finding is tested against.
     passed_trials: dict[str, tuple[_Trial, dict[str, Any]]] = eqx.field(
@@ -197,12 +200,13 @@ def _predict(ctx: _Context, model) -> np.ndarray:
     return ctx.records.predict(model, ctx.solver)
 
 
-def _step(ctx: _Context, label: str, predicted: np.ndarray) -> Step:
+def _step(ctx: _Context, label: str, predicted: np.ndarray, model) -> DiagnosisStep:
     residual = ctx.y - predicted
-    return Step(
+    return DiagnosisStep(
         label,
         math.sqrt(_mse(residual, slice(None))),
         math.sqrt(_mse(residual, ctx.hold_mask)),
+        model,
     )
 
 
@@ -210,7 +214,8 @@ def _with_step(ctx: _Context, state: _State, label: str, **changes: Any) -> _Sta
     """`state` with `changes`, and a row for the model it moves to in the chain."""
     state = dataclasses.replace(state, **changes)
     return dataclasses.replace(
-        state, steps=state.steps + (_step(ctx, label, state.predicted),)
+        state,
+        steps=state.steps + (_step(ctx, label, state.predicted, state.current),),
     )
 
 
@@ -272,7 +277,7 @@ def _base_fit(
     predicted = _predict(ctx, current)
     state = _State(current, predicted, ctx.family.base_free)
     state = dataclasses.replace(
-        state, steps=(_step(ctx, f"{ctx.family.base_name} fitted", predicted),)
+        state, steps=(_step(ctx, f"{ctx.family.base_name} fitted", predicted, current),)
     )
     return state, base
 
@@ -288,7 +293,7 @@ def _score_round(
     AR(2) noise model read from what no candidate explains. Also returns every
     parameter's natural scale and output sensitivities at the current model."""
     family, current = ctx.family, state.current
-    remaining = [e for e in family.catalogue if e.name not in state.adopted]
+    remaining = _unscored(ctx, state)
     sensitive = set()
     for effect in family.catalogue:
         sensitive |= set(effect.sensitivity_parameters(current))
@@ -625,6 +630,8 @@ def _better_base(ctx: _Context, state: _State, trials: list[_Trial]):
 def _forward(ctx: _Context, state: _State) -> _State:
     """Forward selection: score, refit, adopt; until nothing is accepted."""
     for number in range(1, ctx.policy.max_effects + 1):
+        if not _unscored(ctx, state):
+            break
         ctx.progress.say(f"round {number}: scoring {_remaining(ctx, state)}")
         state, scores, natural, column = _score_round(ctx, state)
         if any(c.significant for c in scores):
@@ -689,8 +696,17 @@ def _forward(ctx: _Context, state: _State) -> _State:
     return state
 
 
+def _unscored(ctx: _Context, state: _State) -> list[AbstractEffect]:
+    """The catalogue effects not adopted yet that the record can show."""
+    return [
+        e
+        for e in ctx.family.catalogue
+        if e.name not in state.adopted and e.name not in ctx.hidden
+    ]
+
+
 def _remaining(ctx: _Context, state: _State) -> str:
-    names = [e.name for e in ctx.family.catalogue if e.name not in state.adopted]
+    names = [e.name for e in _unscored(ctx, state)]
     return ", ".join(names) if names else "nothing left"
 
 
@@ -1186,7 +1202,10 @@ def _diagnose(
         recording.sample_rate,
         recording.duration,
         Progress(progress),
+        family.cannot_show(recording),
     )
+    for name, reason in ctx.hidden.items():
+        ctx.progress.say(f"not scoring {name}: {reason}")
     ctx.progress.say(f"fitting the {family.base_name} base model")
     state, base = _base_fit(ctx, base, swarm, progress)
     base_predicted = state.predicted
@@ -1272,4 +1291,5 @@ def _diagnose(
         time.perf_counter() - start_time,
         what_is_left,
         per_recording,
+        tuple(NotShown(name, reason) for name, reason in ctx.hidden.items()),
     )

@@ -93,6 +93,12 @@ class AbstractFamily(eqx.Module):
         """The adoption rules `diagnose` uses unless given a policy."""
         return AdoptionPolicy()
 
+    def cannot_show(self, recording: Recording) -> dict[str, str]:
+        """The catalogue effects this recording cannot show, each with the reason
+        (in words a user can act on). `diagnose` does not score them and says so
+        (`Diagnosis.cannot_show`). None by default."""
+        return {}
+
     def base_swarm(self) -> MPSO:
         """The base fit's swarm `diagnose` uses unless given one."""
         return MPSO(num_particles=100, num_iterations=200)
@@ -353,7 +359,9 @@ class DamperFamily(AbstractFamily):
                 "displacement and the command (voltage or current) beside it: load "
                 "both, e.g. jaxhyst diagnose REC.csv --model mr-damper --input u "
                 "--input v, Recording.load(path, input=['u', 'v']), or "
-                "Recording(t, x, force, more_inputs={'command': v})."
+                "Recording(t, x, force, more_inputs={'command': v}); for a test at "
+                "one fixed command, add it as a constant: "
+                "rec.with_input('command', level)."
             )
         if recording.has_pseudo_time:
             raise ValueError(
@@ -365,6 +373,30 @@ class DamperFamily(AbstractFamily):
 
     def base_template(self):
         return BoucWenDamper(1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1.0, 1.0, 2.0)
+
+    # A command whose spread is below this share of its level (or of 1 when it is
+    # zero) is constant: a test at one coil current.
+    CONSTANT_COMMAND: ClassVar[float] = 1e-6
+
+    def cannot_show(self, recording):
+        command = np.asarray(recording.more_inputs[0])
+        spread = float(np.max(command) - np.min(command))
+        if spread > self.CONSTANT_COMMAND * max(float(np.max(np.abs(command))), 1.0):
+            return {}
+        level = f"{float(command[0]):.4g} {recording.more_input_units[0] or ''}".strip()
+        name = recording.input_names[1]
+        return {
+            "field_dependence": (
+                f"the command ({name!r}) is constant ({level}): a record at one "
+                "field cannot show how the force follows the field; the base "
+                "model's force parameters are that field's. Record several "
+                "command levels, or a varying command, to ask about it."
+            ),
+            "driver_lag": (
+                f"the command ({name!r}) never changes, so no lag of the field "
+                "behind it can show; record command steps to ask about it."
+            ),
+        }
 
     def _yield_floor(self, recording: Recording) -> float:
         """The smallest yield displacement the diagnosis resolves (see

@@ -147,12 +147,17 @@ class Advice(eqx.Module):
         }
 
 
-class Step(eqx.Module):
-    """One model the diagnosis moved to, in order: the RMSE chain of a report."""
+class DiagnosisStep(eqx.Module):
+    """One model the diagnosis moved to, in order: the RMSE chain of a report.
+
+    `model` is that model, so that each step can be checked on a recording it
+    was not fitted to (`jh.predict(step.model, other_recording)`).
+    """
 
     label: str
     rmse: float
     heldout_rmse: float
+    model: AbstractHysteresisModel | None = eqx.field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -234,6 +239,16 @@ class Unexplained(eqx.Module):
         }
 
 
+class NotShown(eqx.Module):
+    """A catalogue effect the recording cannot show (so it was not scored), and why."""
+
+    effect: str
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"effect": self.effect, "reason": self.reason}
+
+
 class RecordingErrors(eqx.Module):
     """One recording's errors before and after a diagnosis over several."""
 
@@ -267,7 +282,7 @@ class Diagnosis(eqx.Module):
     rounds: list[list[Score]]
     ambiguities: list[Ambiguity]
     advice: list[Advice]
-    steps: list[Step]
+    steps: list[DiagnosisStep]
     noise_sigma: float
     noise: dict[str, float]
     location: dict[str, Any]
@@ -285,6 +300,8 @@ class Diagnosis(eqx.Module):
     remainder: Remainder
     # Each recording's errors, when several were diagnosed together (else empty).
     per_recording: tuple[RecordingErrors, ...] = ()
+    # Catalogue effects the recording cannot show (not scored), with the reason.
+    cannot_show: tuple[NotShown, ...] = ()
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -313,6 +330,7 @@ class Diagnosis(eqx.Module):
             "baseline": self.baseline,
             "findings": [f.to_dict() for f in self.findings],
             "unexplained": [u.to_dict() for u in self.unexplained],
+            "cannot_show": [n.to_dict() for n in self.cannot_show],
             "final": {
                 "model": "+".join((self.base_name, *self.effects)),
                 "rmse": self.final["rmse"],

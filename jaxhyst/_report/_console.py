@@ -106,6 +106,8 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
         )
     for item in diagnosis.unexplained:
         lines.append(f"unexplained: {item.description}; it resembles {item.resembles}")
+    for item in diagnosis.cannot_show:
+        lines.append(f"not asked: {item.effect}: {item.reason}")
     if diagnosis.ambiguities:
         lines.append("ambiguities:")
         lines += [f"  - {a.statement}" for a in diagnosis.ambiguities]

@@ -302,6 +302,11 @@ def diagnosis_blocks(
                 "samples predicts the held-out residual beyond its noise."
             )
         )
+    if diagnosis.cannot_show:
+        out += [
+            Heading("What this record cannot show"),
+            Bullets([f"{n.effect}: {n.reason}" for n in diagnosis.cannot_show]),
+        ]
     out.append(Heading("Ambiguities"))
     if diagnosis.ambiguities:
         out.append(Bullets([a.statement for a in diagnosis.ambiguities]))
