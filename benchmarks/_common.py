@@ -559,3 +559,37 @@ def print_summary(
     print(f"median seconds per recording:      {summary['median_seconds']:.1f}")
     print()
     print_confusion(report["confusion"], width=width)
+
+
+def case_line(
+    index: int, total: int, r: dict, *, width: int, sizes_width: int, extra: str = ""
+) -> str:
+    """A suite's progress line for case `r`: its place, effects, noise (and `extra`),
+    the sizes reached (with the truth's form where the suite records forms), the
+    generation time and, once diagnosed, the verdict."""
+    forms = r.get("forms", {})
+    sizes = (
+        ", ".join(
+            f"{k} {v:.1f}" + (f" {forms[k]}" if k in forms else "")
+            for k, v in r["sizes"].items()
+        )
+        or "-"
+    )
+    line = (
+        f"[{index + 1:3d}/{total}] {effects_label(r['effects']):<{width}} "
+        f"{r['noise']:<8} {extra}sizes(sigma): {sizes:<{sizes_width}} "
+        f"gen {r['generate_seconds']:.1f}s"
+    )
+    return line + verdict(r, width) if "named" in r else line
+
+
+def suite_config(args: argparse.Namespace, **extra) -> dict:
+    """The settings every suite records (seeds per configuration, root seed, quick,
+    dry run) and the suite's own."""
+    return {
+        "cases_per_configuration": args.cases,
+        **extra,
+        "seed": args.seed,
+        "quick": args.quick,
+        "dry_run": args.dry_run,
+    }

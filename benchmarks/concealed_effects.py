@@ -144,23 +144,10 @@ def main(argv=None) -> int:
     for index, spec in common.selected(specs, args.only):
         r = run_case(spec, index, args, diagnose)
         results.append(r)
-        sizes = ", ".join(f"{k} {v:.1f}" for k, v in r["sizes"].items()) or "-"
-        line = (
-            f"[{index + 1:3d}/{len(specs)}] {common.effects_label(r['effects']):<26} "
-            f"{r['noise']:<8} sizes(sigma): {sizes:<34} gen {r['generate_seconds']:.1f}s"
-        )
-        if diagnose is not None:
-            line += common.verdict(r, 26)
+        line = common.case_line(index, len(specs), r, width=26, sizes_width=34)
         print(line, flush=True)
 
-    config = {
-        "cases_per_configuration": args.cases,
-        "duration": args.duration,
-        "rate": args.rate,
-        "seed": args.seed,
-        "quick": args.quick,
-        "dry_run": args.dry_run,
-    }
+    config = common.suite_config(args, duration=args.duration, rate=args.rate)
     report = common.suite_report(config, env, results)
     if diagnose is not None:
         summary = common.score_suite(

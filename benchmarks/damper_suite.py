@@ -180,30 +180,13 @@ def main(argv=None) -> int:
             continue
         r = run_case(spec, index, args)
         results.append(r)
-        sizes = (
-            ", ".join(f"{k} {v:.1f} {r['forms'][k]}" for k, v in r["sizes"].items())
-            or "-"
-        )
-        line = (
-            f"[{index + 1:3d}/{len(specs)}] {common.effects_label(r['effects']):<28} "
-            f"{r['noise']:<8} sizes(sigma): {sizes:<60} "
-            f"gen {r['generate_seconds']:.1f}s"
-        )
-        if not args.dry_run:
-            line += common.verdict(r, 28)
+        line = common.case_line(index, len(specs), r, width=28, sizes_width=60)
         print(line, flush=True)
     if not results:
         print("no case matched --only / --shard")
         return 1
 
-    config = {
-        "cases_per_configuration": args.cases,
-        "duration": args.duration,
-        "seed": args.seed,
-        "quick": args.quick,
-        "dry_run": args.dry_run,
-        "shard": args.shard,
-    }
+    config = common.suite_config(args, duration=args.duration, shard=args.shard)
     report = common.suite_report(config, env, results)
     if not args.dry_run:
         score_and_print(report)

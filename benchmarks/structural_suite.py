@@ -179,29 +179,20 @@ def main(argv=None) -> int:
     for index, spec in common.selected(specs, args.only):
         r = run_case(spec, index, args, diagnose, family)
         results.append(r)
-        sizes = (
-            ", ".join(f"{k} {v:.1f} {r['forms'][k]}" for k, v in r["sizes"].items())
-            or "-"
+        line = common.case_line(
+            index,
+            len(specs),
+            r,
+            width=22,
+            sizes_width=44,
+            extra=f"{r['protocol']:<10} ",
         )
-        line = (
-            f"[{index + 1:3d}/{len(specs)}] {common.effects_label(r['effects']):<22} "
-            f"{r['noise']:<8} {r['protocol']:<10} sizes(sigma): {sizes:<44} "
-            f"gen {r['generate_seconds']:.2f}s"
-        )
-        if diagnose is not None:
-            line += common.verdict(r, 22)
         print(line, flush=True)
     if not results:
         print("no case matched --only")
         return 1
 
-    config = {
-        "cases_per_configuration": args.cases,
-        "points": args.points,
-        "seed": args.seed,
-        "quick": args.quick,
-        "dry_run": args.dry_run,
-    }
+    config = common.suite_config(args, points=args.points)
     report = common.suite_report(config, env, results)
     if diagnose is not None:
         summary = summarise(report)

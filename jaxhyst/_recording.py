@@ -321,11 +321,15 @@ class Recording(eqx.Module):
 
     # --------------------------------------------------------------------- methods
 
-    def _replace(self, t, u, y, more=None) -> "Recording":
+    def _replace(
+        self, t, u, y, more=None, *, more_names=None, more_units=None
+    ) -> "Recording":
         """A recording with new columns and this one's names and units; `more`: the
         further inputs (one row each), as many rows as this one has (None: keep
-        them, for the same samples)."""
+        them, for the same samples), unless `more_names`/`more_units` name others."""
         more = self.more_inputs if more is None else more
+        names = self.more_input_names if more_names is None else more_names
+        units = self.more_input_units if more_units is None else more_units
         return Recording(
             t,
             u,
@@ -336,10 +340,8 @@ class Recording(eqx.Module):
             input_unit=self.input_unit,
             output_unit=self.output_unit,
             time_unit=self.time_unit,
-            more_inputs=dict(zip(self.more_input_names, more, strict=True)),
-            more_input_units=dict(
-                zip(self.more_input_names, self.more_input_units, strict=True)
-            ),
+            more_inputs=dict(zip(names, more, strict=True)),
+            more_input_units=dict(zip(names, units, strict=True)),
         )
 
     def _rows(self, keep) -> "Recording":
@@ -381,24 +383,13 @@ class Recording(eqx.Module):
         column = np.asarray(values, dtype=np.float64)
         if column.ndim == 0:
             column = np.full(self.num_samples, float(column))
-        return Recording(
+        return self._replace(
             self.t,
             self.u,
             self.y,
-            name=self.name,
-            input_name=self.input_name,
-            output_name=self.output_name,
-            input_unit=self.input_unit,
-            output_unit=self.output_unit,
-            time_unit=self.time_unit,
-            more_inputs={
-                **dict(zip(self.more_input_names, self.more_inputs)),
-                name: column,
-            },
-            more_input_units={
-                **dict(zip(self.more_input_names, self.more_input_units)),
-                name: unit,
-            },
+            [*self.more_inputs, column],
+            more_names=(*self.more_input_names, name),
+            more_units=(*self.more_input_units, unit),
         )
 
     @classmethod
