@@ -302,3 +302,27 @@ def test_swarm_objective_uses_every_sample():
     ok = np.isfinite(fine)
     assert np.array_equal(ok, np.isfinite(cheap))
     assert np.array_equal(np.argsort(fine[ok]), np.argsort(cheap[ok]))
+
+
+def test_polish_residuals_carry_the_forward_mode_jacobian():
+    # The polish hands optimistix residuals whose derivative is one batched
+    # forward pass (a tangent per coordinate); it must equal the plain derivative,
+    # through `jax.linearize` (what Levenberg-Marquardt materialises) and `jvp`.
+    from jaxhyst._identification._polish import _residuals_jacfwd
+    from jaxhyst._identification._problem import problem_residuals
+
+    recording, _ = _recording(rate=100.0)
+    problem = _problem(recording)
+    z = 0.9 * problem.space.from_model(TRUTH) + 0.05
+    plain = jax.jacfwd(lambda w: problem_residuals(problem, w))(z)
+    value, linear = jax.linearize(lambda w: _residuals_jacfwd(w, problem), z)
+    np.testing.assert_allclose(value, problem_residuals(problem, z), rtol=1e-12)
+    materialised = jax.vmap(linear, out_axes=1)(jnp.eye(z.size))
+    np.testing.assert_allclose(materialised, plain, rtol=1e-10, atol=1e-12)
+    direction = jnp.linspace(-1.0, 1.0, z.size)
+    _, tangent = jax.jvp(lambda w: _residuals_jacfwd(w, problem), (z,), (direction,))
+    np.testing.assert_allclose(tangent, plain @ direction, rtol=1e-10, atol=1e-12)
+    # Reverse mode transposes the same matrix.
+    cotangent = jnp.ones(value.shape)
+    (gradient,) = jax.vjp(lambda w: _residuals_jacfwd(w, problem), z)[1](cotangent)
+    np.testing.assert_allclose(gradient, plain.T @ cotangent, rtol=1e-10, atol=1e-12)
