@@ -262,6 +262,35 @@ def test_a_clean_record_names_nothing():
     assert diagnosis.final_rmse < 1.1 * case.sigma
 
 
+def test_a_lagged_field_is_named_with_its_lag():
+    # A field seen through a 2nd-order driver: the field dependence fitted without
+    # its lag fails held-out validation, so it is refitted together with
+    # driver_lag (seen only through it), and both are named.
+    case = jh.synthetic.damper_recording(
+        ("field_dependence", "driver_lag"),
+        key=jax.random.key(0),
+        duration=1.5,
+        size_sigmas={"field_dependence": 12.0, "driver_lag": 6.0},
+    )
+    diagnosis = jh.diagnose(
+        case.recording,
+        key=jax.random.key(0),
+        family=jh.DamperFamily(),
+        swarm=QUICK_SWARM,
+    )
+    assert diagnosis.effects == ("field_dependence", "driver_lag")
+    first = diagnosis.rounds[0]
+    field = next(s for s in first if s.effect == "field_dependence")
+    assert field.together == ("driver_lag",)
+    assert field.to_dict()["validated_with"] == ["driver_lag"]
+    assert "refitted together" in diagnosis.findings[1].evidence
+    assert diagnosis.steps[1].label.startswith("field_dependence and driver_lag added")
+    # Measured 1.47 sigma (the base 4.2); the truth's second-order driver is not
+    # the catalogue's first-order lag.
+    assert diagnosis.final_rmse < 1.8 * case.sigma
+    assert diagnosis.baseline["rmse"] > 3 * case.sigma
+
+
 def test_a_record_at_one_command_says_what_it_cannot_show(tmp_path):
     # A damper tested at one coil current: the field's effects are not asked about,
     # and the report says why. Each step's model reproduces the step's error.

@@ -96,6 +96,9 @@ class _Trial(eqx.Module):
     predicted: np.ndarray
     validation: Validation
     null: tuple[AbstractHysteresisModel, np.ndarray] | None = None
+    # Dependents refitted and adopted together with the effect (see
+    # `AbstractEffect.needs`).
+    dependents: tuple[str, ...] = ()
 
 
 class _State(eqx.Module):
@@ -357,10 +360,15 @@ def _score_round(
 # ---------------------------------------------------------------------- refits
 
 
-def _best_start(ctx: _Context, effect: AbstractEffect, current, step, scales):
-    """The starting point with the lowest error on the fitted samples."""
+def _best_start(
+    ctx: _Context, effect: AbstractEffect, current, step, scales, *, on: bool = False
+):
+    """The starting point with the lowest error on the fitted samples (`on`: among
+    those with the effect switched on)."""
     best, best_mse = current, float("inf")
     for trial in effect.starting_points(current, step, scales):
+        if on and not effect.is_on(trial):
+            continue
         pred = _predict(ctx, trial)
         if not _finite(pred):
             continue
@@ -371,7 +379,13 @@ def _best_start(ctx: _Context, effect: AbstractEffect, current, step, scales):
 
 
 def _validate(
-    ctx: _Context, state: _State, score: Score, effect: AbstractEffect, new_pred
+    ctx: _Context,
+    state: _State,
+    score: Score,
+    effect: AbstractEffect,
+    new_pred,
+    *,
+    extra_parameters: int = 0,
 ) -> Validation:
     """Held-out and fitted errors before and after, and the adoption rule: the
     held-out MSE drop must beat its own noise (its resolution) and the minimum
@@ -388,7 +402,7 @@ def _validate(
     bound = math.sqrt(min(before_hold, after_hold)) if ctx.policy.noise_bound else None
     resolution = noise.resolution(change, state.effective_heldout, bound=bound)
     margin = max(ctx.policy.min_heldout_gain * before_hold, resolution)
-    p = len(effect.parameters)
+    p = len(effect.parameters) + extra_parameters
     bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(n_eff_fit)
     return Validation(
         math.sqrt(before_hold),
@@ -447,35 +461,95 @@ def _refit_candidates(
     trials = []
     for c in chosen:
         effect = family.effect(c.effect)
-        names = list(state.free) + list(effect.parameters)
         key = jax.random.fold_in(ctx.key, 1000 * len(state.findings) + len(trials))
-        refitted = _refit(
-            ctx,
-            state,
-            starts[c.effect],
-            names,
-            max_steps=policy.candidate_steps,
-            key=key,
-        )
-        new_pred = _predict(ctx, refitted)
-        if not _finite(new_pred):
+        trial = _trial(ctx, state, updated[c.effect], (effect,), starts[c.effect], key)
+        if trial is not None and not trial.validation.accepted:
+            trial = _with_dependents(ctx, state, trial, effect, scales, key)
+        if trial is None:
             updated[c.effect] = dataclasses.replace(
                 updated[c.effect], rejection="the refitted model diverged"
             )
             continue
-        validation = _validate(ctx, state, c, effect, new_pred)
-        rejection = None if validation.accepted else _why_rejected(validation)
-        null = None
-        if policy.null_refit and validation.accepted:
-            validation, rejection, null = _against_null(
-                ctx, state, c, effect, refitted, new_pred
-            )
-        score = dataclasses.replace(
-            updated[c.effect], validation=validation, rejection=rejection
-        )
-        updated[c.effect] = score
-        trials.append(_Trial(score, refitted, new_pred, validation, null))
+        updated[c.effect] = trial.score
+        trials.append(trial)
     return [updated[c.effect] for c in scores], trials
+
+
+def _trial(
+    ctx: _Context,
+    state: _State,
+    score: Score,
+    effects: tuple[AbstractEffect, ...],
+    start: AbstractHysteresisModel,
+    key: PRNGKeyArray,
+) -> _Trial | None:
+    """`effects` (the scored one, then any dependents) refitted together from
+    `start` and validated on the held-out samples (against the null refit when the
+    policy asks); None if the refit diverged."""
+    effect, dependents = effects[0], effects[1:]
+    names = list(state.free) + [p for e in effects for p in e.parameters]
+    refitted = _refit(
+        ctx, state, start, names, max_steps=ctx.policy.candidate_steps, key=key
+    )
+    new_pred = _predict(ctx, refitted)
+    if not _finite(new_pred):
+        return None
+    extra = sum(len(e.parameters) for e in dependents)
+    validation = _validate(ctx, state, score, effect, new_pred, extra_parameters=extra)
+    rejection = None if validation.accepted else _why_rejected(validation)
+    null = None
+    if ctx.policy.null_refit and validation.accepted:
+        validation, rejection, null = _against_null(
+            ctx, state, score, effect, refitted, new_pred, extra_parameters=extra
+        )
+    together = tuple(e.name for e in dependents)
+    score = dataclasses.replace(
+        score, validation=validation, rejection=rejection, together=together
+    )
+    return _Trial(score, refitted, new_pred, validation, null, together)
+
+
+def _with_dependents(
+    ctx: _Context,
+    state: _State,
+    alone: _Trial,
+    effect: AbstractEffect,
+    scales: RefitScales,
+    key: PRNGKeyArray,
+) -> _Trial:
+    """An effect that failed validation alone, refitted together with each effect
+    seen only through it (`AbstractEffect.needs`; e.g. a lag of the field, which a
+    field dependence fitted without its lag cannot show): the first pair that passes,
+    else the effect alone with what each pair reached added to its rejection."""
+    notes = []
+    dependents = [e for e in _unscored(ctx, state) if e.needs == effect.name]
+    for dependent in dependents:
+        # From the effect's own refit with the dependent switched on: at zero (a
+        # lag of none) its derivative may not move it.
+        start, _ = _best_start(ctx, dependent, alone.model, {}, scales, on=True)
+        together = _trial(
+            ctx,
+            state,
+            dataclasses.replace(alone.score, validation=None, rejection=None),
+            (effect, dependent),
+            start,
+            jax.random.fold_in(key, 1 + ctx.family.effect_names.index(dependent.name)),
+        )
+        if together is not None and together.validation.accepted:
+            return together
+        if together is not None:
+            v = together.validation
+            notes.append(
+                f"refitted together with {dependent.name}, the held-out RMSE went "
+                f"from {v.heldout_rmse_before:.3g} to {v.heldout_rmse_after:.3g}: "
+                + (together.score.rejection or "")
+            )
+    if not notes:
+        return alone
+    rejection = "; ".join([alone.score.rejection or "", *notes])
+    return dataclasses.replace(
+        alone, score=dataclasses.replace(alone.score, rejection=rejection)
+    )
 
 
 def _against_null(
@@ -485,6 +559,8 @@ def _against_null(
     effect: AbstractEffect,
     refitted: AbstractHysteresisModel,
     predicted: np.ndarray,
+    *,
+    extra_parameters: int = 0,
 ) -> tuple[Validation, str | None, tuple[AbstractHysteresisModel, np.ndarray] | None]:
     """The candidate validated against the model it extends, refitted from the
     candidate's refitted values with the effect switched off (when that null fits
@@ -498,10 +574,11 @@ def _against_null(
     )
     null_pred = _predict(ctx, null)
     current_hold = _mse(ctx.y - state.predicted, ctx.hold_mask)
+    extra = {"extra_parameters": extra_parameters}
     if not _finite(null_pred) or _mse(ctx.y - null_pred, ctx.hold_mask) >= current_hold:
-        return _validate(ctx, state, score, effect, predicted), None, None
+        return _validate(ctx, state, score, effect, predicted, **extra), None, None
     versus = dataclasses.replace(state, current=null, predicted=null_pred)
-    validation = _validate(ctx, versus, score, effect, predicted)
+    validation = _validate(ctx, versus, score, effect, predicted, **extra)
     if validation.accepted:
         return validation, None, (null, null_pred)
     return (
@@ -549,17 +626,39 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
         error_metrics(ctx.y, winner.predicted),
         winner.validation,
     )
-    free = state.free + tuple(p for p in effect.parameters if p not in state.free)
+    findings = (finding,)
+    for dependent_name in winner.dependents:
+        dependent = family.effect(dependent_name)
+        v = winner.validation
+        findings += (
+            Finding(
+                dependent_name,
+                f"{dependent.meaning}. It shows only through {name} (its score test "
+                f"has no direction while {name} is off) and {name} alone did not "
+                "pass held-out validation, so the two were refitted together: adding "
+                f"both lowered the held-out RMSE from {v.heldout_rmse_before:.3g} to "
+                f"{v.heldout_rmse_after:.3g}. The backward check tests each alone.",
+                family.describe(where_now),
+                math.nan,
+                dependent.values(winner.model),
+                error_metrics(ctx.y, state.predicted),
+                error_metrics(ctx.y, winner.predicted),
+                v,
+            ),
+        )
+    added = [p for f in findings for p in family.effect(f.effect).parameters]
+    free = state.free + tuple(p for p in added if p not in state.free)
+    label = " and ".join((name, *winner.dependents))
     state = _with_step(
         ctx,
         state,
-        f"{name} added (refit on the fitted samples)",
+        f"{label} added (refit on the fitted samples)",
         current=winner.model,
         predicted=winner.predicted,
         free=free,
-        findings=state.findings + (finding,),
+        findings=state.findings + findings,
     )
-    ctx.progress.say(f"adopted {name}; converging the model with it")
+    ctx.progress.say(f"adopted {label}; converging the model with it")
     current = _refit(ctx, state, winner.model, free, max_steps=policy.converge_steps)
     predicted = _predict(ctx, current)
     if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
@@ -569,7 +668,7 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
     return _with_step(
         ctx,
         state,
-        f"refit converged with {name}",
+        f"refit converged with {label}",
         current=current,
         predicted=predicted,
     )

@@ -71,6 +71,9 @@ class Score(eqx.Module):
     start_mse: float | None = None
     validation: Validation | None = None
     rejection: str | None = None
+    # Effects refitted and validated together with this one (its dependents, e.g.
+    # driver_lag with field_dependence), when it failed validation alone.
+    together: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {
@@ -87,6 +90,8 @@ class Score(eqx.Module):
             out["validation"] = self.validation.to_dict()
         if self.rejection is not None:
             out["rejected"] = self.rejection
+        if self.together:
+            out["validated_with"] = list(self.together)
         return out
 
 

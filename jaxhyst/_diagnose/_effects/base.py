@@ -111,6 +111,12 @@ class AbstractEffect(eqx.Module):
             for scale in (0.25, 0.5, 1.0, 2.0, 4.0)
         ]
 
+    # The effect this one is seen through (None: itself): a lag of the field shows
+    # only once the force follows the field. When that effect's refit alone fails
+    # validation, the engine also refits the two together (the dependent's score
+    # test has no direction while the effect it needs is off).
+    needs: ClassVar[str | None] = None
+
     def always_refit(self) -> bool:
         """Refit whenever significant, even outside the strongest few: for effects
         the linearised score understates."""

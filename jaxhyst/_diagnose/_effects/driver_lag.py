@@ -27,6 +27,7 @@ class DriverLag(AbstractEffect):
 
     name: ClassVar[str] = "driver_lag"
     parameters: ClassVar[tuple[str, ...]] = ("command_lag",)
+    needs: ClassVar[str | None] = "field_dependence"
     meaning: ClassVar[str] = (
         "the field lags the command: after each switch the force reaches its new "
         "level over a time constant (the coil's inductance, the current driver, "
