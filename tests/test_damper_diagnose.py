@@ -209,7 +209,12 @@ def test_the_family_s_choices():
         assert probe.path.num_samples == recording.num_samples
         assert probe.path.num_inputs == 2
     extended = family.extend(case.base, recording)
-    assert family.refit_stride(extended, recording) >= 1
+    # Refits at the full rate; the base swarm on the first 2000 samples, at the
+    # full rate too, where the record is longer.
+    assert family.refit_stride(extended, recording) == 1
+    assert family.base_swarm_window(recording) == 2000
+    assert family.base_swarm_window(recording.segment(None, 0.5)) is None
+    assert jh.PiezoFamily().base_swarm_window(recording) is None
     where = family.locate(recording, recording.y - np.mean(recording.y))
     assert family.describe(where).startswith("mismatch ")
 

@@ -249,6 +249,25 @@ def _base_fit(
     """The base model fitted on the fit mask (unless given), and the extended model
     around it with every effect off."""
     if base is None:
+        start = None
+        window = ctx.family.base_swarm_window(ctx.recording)
+        if window is not None and not ctx.records.several:
+            # The swarm on the first `window` samples at the full rate; the polish
+            # below then fits every (fitted) sample from its result.
+            first = ctx.recording.segment(None, float(ctx.recording.t[window - 1]))
+            start = identify(
+                ctx.family.base_template(),
+                first,
+                key=ctx.key,
+                space=ctx.family.base_space(ctx.recording),
+                swarm=swarm,
+                solver=ctx.solver,
+                swarm_stride=1,
+                weights=ctx.weights[: first.num_samples],
+                analyse=False,
+                progress=progress,
+                throw=False,
+            ).model
         records = ctx.records
         several = records.several
         fit = identify(
@@ -256,7 +275,8 @@ def _base_fit(
             list(records.recordings) if several else ctx.recording,
             key=ctx.key,
             space=ctx.family.base_space(ctx.recording),
-            swarm=swarm,
+            swarm=None if start is not None else swarm,
+            start=start,
             solver=ctx.solver,
             weights=[
                 jnp.asarray(m, ctx.measured.dtype) for m in records.split(ctx.fit_mask)
