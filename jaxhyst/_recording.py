@@ -623,7 +623,8 @@ class Recording(eqx.Module):
 
         `input` may list several columns (`input=["u", "v"]`): the first is `u`, the
         others become `more_inputs` under their column names. None reads the inputs
-        `save` wrote (all of them), else "u".
+        `save` wrote (all of them), else "u"; `output=None` likewise reads the output
+        `save` wrote with several inputs, else "y".
 
         `time=None` reads a quasi-static test without a time column: a text file of
         exactly two equally long columns, displacement and force (default `input=0`,
@@ -653,15 +654,17 @@ class Recording(eqx.Module):
                     "Recording.load: input=[] selects no input; name at least one "
                     "column."
                 )
-        output = "y" if output is None else output
         header = True if header is None else header
         if suffix not in (".csv", ".txt", ".npz", ".mat"):
             raise RecordingError(
                 f"Recording.load: unknown file type {path.suffix!r} of {str(path)!r}; "
                 "use .csv, .txt, .npz or .mat."
             )
+        saved = _saved_inputs(path, suffix) if None in (input, output) else ()
         if inputs is None:
-            inputs = list(_saved_inputs(path, suffix)) or ["u"]
+            inputs = list(saved) or ["u"]
+        if output is None:
+            output = (_saved_output(path, suffix, saved) if saved else None) or "y"
         selectors = (time, *inputs, output)
         if suffix in (".csv", ".txt"):
             columns, units = _read_text(path, selectors, header)
@@ -923,6 +926,24 @@ def _saved_inputs(path: Path, suffix: str) -> tuple[str, ...]:
     if stored is None or np.asarray(stored).dtype.kind != "U":
         return ()
     return tuple(str(n).strip() for n in np.asarray(stored).ravel())
+
+
+def _saved_output(path: Path, suffix: str, inputs: tuple[str, ...]) -> str | None:
+    """The output column of a file `save` wrote with several `inputs` (the one
+    column that is neither the time "t" nor an input), else None."""
+    if suffix in (".csv", ".txt"):
+        with open(path, encoding="utf-8-sig", newline="") as file:
+            file.readline()
+            head = next(csv.reader([file.readline()]), [])
+        names = [_split_unit(cell)[0] for cell in head]
+    else:
+        names = [
+            key
+            for key in _stored_arrays(path, suffix[1:])
+            if not key.startswith(_META_PREFIX) and not key.startswith("__")
+        ]
+    rest = [n for n in names if n not in ("t", *inputs)]
+    return rest[0] if len(rest) == 1 else None
 
 
 def _check_two_columns(

@@ -82,6 +82,10 @@ def test_several_inputs_survive_save_and_load(tmp_path, suffix):
         "N",
     )
     np.testing.assert_array_equal(back.more_inputs, r.more_inputs)
+    # With no columns named, the file reads back whole: its inputs and its output.
+    plain = jh.Recording.load(path)
+    assert plain.input_names == ("x", "v") and plain.output_name == "F"
+    np.testing.assert_array_equal(plain.y, r.y)
     # One input picked explicitly reads only that one.
     assert jh.Recording.load(path, input="x", output="F").input_names == ("x",)
 
