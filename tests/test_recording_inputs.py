@@ -203,3 +203,17 @@ def test_with_input_adds_a_constant_or_a_column():
         r.with_input("v", 1.0)
     with pytest.raises(jh.RecordingError, match="length mismatch"):
         r.with_input("w", column[:-1])
+
+
+def test_command_line_reads_a_saved_file_of_several_inputs_whole(tmp_path):
+    # No --input, no --output: the inputs and the output the file names.
+    from jaxhyst._cli._main import build_parser
+    from jaxhyst._cli._options import load_recordings
+
+    r = _damper_like()
+    path = tmp_path / "saved.csv"
+    r.save(path)
+    args = build_parser().parse_args(["diagnose", str(path), "--model", "mr-damper"])
+    (back,) = load_recordings(args)
+    assert back.input_names == ("x", "v") and back.output_name == "F"
+    np.testing.assert_array_equal(back.y, r.y)

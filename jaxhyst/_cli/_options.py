@@ -96,7 +96,14 @@ def add_recording_options(parser, *, several: bool = False) -> None:
             action="append" if option == "input" else "store",
             metavar="COLUMN",
             help=f"the {option} column: header name (default: {default}) or 0-based "
-            f"index (default with --no-header: {index}{no_time}){repeat}.",
+            f"index (default with --no-header: {index}{no_time}){repeat}"
+            + (
+                "; without it, the output a jaxhyst-saved file of several inputs "
+                "names, else y"
+                if option == "output"
+                else ""
+            )
+            + ".",
         )
     group.add_argument(
         "--no-header",
@@ -242,11 +249,18 @@ def _read_recording(args: argparse.Namespace, path: str) -> Recording:
         inputs = None if header else [column(None, "u", 1, header, "input")]
     else:
         inputs = [column(text, "u", 1, header, "input") for text in args.input]
+    # With a header and no --output: the output the file names (a jaxhyst-saved
+    # file of several inputs), else "y" (Recording.load's default).
+    output = (
+        None
+        if header and args.output is None
+        else column(args.output, "y", 2, header, "output")
+    )
     return Recording.load(
         path,
         time=column(args.time, "t", 0, header, "time"),
         input=inputs,
-        output=column(args.output, "y", 2, header, "output"),
+        output=output,
         header=header,
     )
 
