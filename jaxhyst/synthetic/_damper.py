@@ -62,7 +62,7 @@ from ._checks import (
 )
 from ._noise import _load_cell_noise
 from ._random import _loguniform, _rng
-from ._size_search import _rms, _solve_size
+from ._size_search import _first_reaching, _in_order, _rms, _Sized, _solve_size
 
 
 DAMPER_FORMS: dict[str, tuple[str, ...]] = {
@@ -75,7 +75,6 @@ DAMPER_FORMS: dict[str, tuple[str, ...]] = {
 # The command's full scale (V): Dyke's tests drive 0 to 2.25-2.5 V.
 FULL_SCALE = 2.5
 _DEFAULT_SIZES = (4.0, 12.0)  # noise sigmas, when size_sigmas is None
-_REACHED = 0.98  # a form that reaches less than this share of the target gives way
 
 
 class FieldGrowth(eqx.Module):
@@ -525,25 +524,6 @@ def _none(x) -> bool:
 
 
 # ----------------------------------------------------------------------- sizing
-
-# A sizer returns (field, component, RMS reached, form, description).
-_Sized = tuple[str, eqx.Module, float, str, str]
-
-
-def _first_reaching(target: float, forms) -> _Sized:
-    """The first form that reaches the target size, else the closest."""
-    best = forms[0]()
-    for form in forms[1:]:
-        if best[2] >= _REACHED * target:
-            break
-        sized = form()
-        best = sized if sized[2] > best[2] else best
-    return best
-
-
-def _in_order(rng: np.random.Generator, forms: list) -> list:
-    first = int(rng.integers(len(forms)))
-    return forms[first:] + forms[:first]
 
 
 def _size_field(rng, measure, target, base, velocity, duration) -> _Sized:

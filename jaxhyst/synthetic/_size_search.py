@@ -8,7 +8,33 @@ is linear in it, by a safeguarded secant search where it is not) until the RMS o
 import math
 from collections.abc import Callable
 
+import equinox as eqx
 import numpy as np
+
+
+# A form that reaches less than this share of the target size gives way to the next.
+_REACHED = 0.98
+
+# A sizer returns (field, component, RMS reached, form, description).
+_Sized = tuple[str, eqx.Module, float, str, str]
+
+
+def _first_reaching(target: float, forms: list[Callable[[], _Sized]]) -> _Sized:
+    """The first form that reaches the target size, else the one that came closest
+    (a form is capped where its physics would turn unrealistic)."""
+    best = forms[0]()
+    for form in forms[1:]:
+        if best[2] >= _REACHED * target:
+            break
+        sized = form()
+        best = sized if sized[2] > best[2] else best
+    return best
+
+
+def _in_order(rng: np.random.Generator, forms: list) -> list:
+    """The forms with a random first choice, the others as fallbacks."""
+    first = int(rng.integers(len(forms)))
+    return forms[first:] + forms[:first]
 
 
 def _rms(x: np.ndarray) -> float:

@@ -16,7 +16,7 @@ import numpy as np
 
 from .._inputs import InputPath
 from .._simulate import RK4, simulate
-from ._size_search import _rms, _solve_size
+from ._size_search import _first_reaching, _in_order, _rms, _Sized, _solve_size
 from ._structural_truth import (
     DuctilityDegradation,
     DuctilityPinching,
@@ -27,9 +27,6 @@ from ._structural_truth import (
     SlipGap,
     StructuralTruth,
 )
-
-
-_REACHED = 0.98  # a form that reaches less than this share of the target gives way
 
 
 def _truth_solver(x: np.ndarray, x_y: float) -> RK4:
@@ -60,28 +57,6 @@ class _Context(NamedTuple):
     energy: float  # the cumulative loading work at the end of the base record
     duration: float
     measure: Callable  # (field name, component) -> RMS of the change it makes
-
-
-# A sizer returns (field, component, RMS reached, form, description).
-_Sized = tuple[str, eqx.Module, float, str, str]
-
-
-def _first_reaching(target: float, forms: list[Callable[[], _Sized]]) -> _Sized:
-    """The first form that reaches the target size, else the one that came closest
-    (a form is capped where its physics would turn unrealistic)."""
-    best = forms[0]()
-    for form in forms[1:]:
-        if best[2] >= _REACHED * target:
-            break
-        sized = form()
-        best = sized if sized[2] > best[2] else best
-    return best
-
-
-def _in_order(rng: np.random.Generator, forms: list) -> list:
-    """The forms with a random first choice, the others as fallbacks."""
-    first = int(rng.integers(len(forms)))
-    return forms[first:] + forms[:first]
 
 
 def _size_degradation(rng, ctx: _Context, target: float) -> _Sized:
