@@ -231,18 +231,22 @@ QUICK_POLICY = jh.AdoptionPolicy(
 QUICK_SWARM = jh.MPSO(num_particles=48, num_iterations=60)
 
 
-def test_a_large_concealed_field_dependence_is_named():
-    # 0.8 s at 3 kHz (2400 samples); measured 40 s on 2 cores.
-    case = jh.synthetic.damper_recording(
-        ("field_dependence",), key=jax.random.key(0), duration=0.8, size_sigmas=30.0
-    )
-    diagnosis = jh.diagnose(
-        case.recording,
+def _quick_diagnosis(recording: jh.Recording) -> jh.Diagnosis:
+    return jh.diagnose(
+        recording,
         key=jax.random.key(0),
         family=jh.DamperFamily(),
         swarm=QUICK_SWARM,
         policy=QUICK_POLICY,
     )
+
+
+def test_a_large_concealed_field_dependence_is_named():
+    # 0.8 s at 3 kHz (2400 samples); measured 40 s on 2 cores.
+    case = jh.synthetic.damper_recording(
+        ("field_dependence",), key=jax.random.key(0), duration=0.8, size_sigmas=30.0
+    )
+    diagnosis = _quick_diagnosis(case.recording)
     assert diagnosis.effects == ("field_dependence",)
     assert diagnosis.final_rmse < 1.2 * case.sigma
     assert diagnosis.findings[0].validation.heldout_gain > 0.9
@@ -256,13 +260,7 @@ def test_a_large_concealed_field_dependence_is_named():
 def test_a_clean_record_names_nothing():
     # Measured 9 s alone (3 s after the test above, its programs compiled).
     case = jh.synthetic.damper_recording((), key=jax.random.key(0), duration=0.8)
-    diagnosis = jh.diagnose(
-        case.recording,
-        key=jax.random.key(0),
-        family=jh.DamperFamily(),
-        swarm=QUICK_SWARM,
-        policy=QUICK_POLICY,
-    )
+    diagnosis = _quick_diagnosis(case.recording)
     assert diagnosis.findings == [] and diagnosis.unexplained == []
     assert diagnosis.final_rmse < 1.1 * case.sigma
 
@@ -319,13 +317,7 @@ def test_a_record_at_one_command_says_what_it_cannot_show(tmp_path):
     with pytest.raises(ValueError, match="with_input"):
         jh.diagnose(single, key=jax.random.key(0), family=jh.DamperFamily())
     held = single.with_input("command", 1.2, unit="V")
-    diagnosis = jh.diagnose(
-        held,
-        key=jax.random.key(0),
-        family=jh.DamperFamily(),
-        swarm=QUICK_SWARM,
-        policy=QUICK_POLICY,
-    )
+    diagnosis = _quick_diagnosis(held)
     report = diagnosis.to_dict()
     assert [n["effect"] for n in report["cannot_show"]] == [
         "field_dependence",
