@@ -19,7 +19,7 @@ equations as `StructuralBoucWen`, whose energy is divided by `energy_scale`. Hen
 - `BWBN` (pinching): q = pinch_shift, zetas = pinch, p = pinch_rate/energy_scale,
   Shi = pinch_width*zu, deltaShi = 0, lamda = pinch_lambda; it has no nu, eta, so
   degradation is dropped when both are on;
-- neither has asymmetry (skew, stiffness_skew) or drift (offset, trend, curvature,
+- neither has asymmetry (yield_skew, stiffness_skew) or drift (offset, trend, curvature,
   wander).
 """
 
@@ -65,7 +65,7 @@ _KNOWN = frozenset(
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
-        "skew",
+        "yield_skew",
         "stiffness_skew",
     )
     + _DRIFT
@@ -256,10 +256,10 @@ def opensees_material(
             f"{p['stiffness_degradation']:.4g}): BWBN, the only OpenSees material "
             "with this pinching, has no strength or stiffness degradation"
         )
-    if p["skew"] != 0 or p["stiffness_skew"] != 0:
+    if p["yield_skew"] != 0 or p["stiffness_skew"] != 0:
         dropped.append("asymmetry")
         reasons.append(
-            f"asymmetry (skew={p['skew']:.4g}, stiffness_skew="
+            f"asymmetry (yield_skew={p['yield_skew']:.4g}, stiffness_skew="
             f"{p['stiffness_skew']:.4g}): OpenSees Bouc-Wen materials are symmetric "
             "(one saturation level, one post-yield stiffness)"
         )

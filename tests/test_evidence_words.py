@@ -393,7 +393,7 @@ def test_units_follow_the_equations():
     blank = jh.Creep().units(time="", input="", output="")
     assert set(blank.values()) == {"(output units)/(input units)"}
     assert jh.PushPullAsymmetry().units(time="sample", input="mm", output="kN") == {
-        "skew": "mm^-n",
+        "yield_skew": "1",
         "stiffness_skew": "1",
     }
 

@@ -116,12 +116,12 @@ def test_pinching_with_degradation_drops_degradation():
 
 
 def test_asymmetry_drift_and_smoothing_are_dropped():
-    model = _structural(skew=0.1, stiffness_skew=0.2, offset=5.0, trend=1.0)
+    model = _structural(yield_skew=0.1, stiffness_skew=0.2, offset=5.0, trend=1.0)
     material = opensees_material(model)
     assert material.material == "BoucWen"
     assert material.dropped == ("asymmetry", "drift")
     assert not material.exact
-    assert "offset=5" in material.note and "skew=0.1" in material.note
+    assert "offset=5" in material.note and "yield_skew=0.1" in material.note
     if "wander" in jh.StructuralBoucWen.parameter_names:
         assert opensees_material(_structural(wander=0.2)).dropped == ("drift",)
     smooth = jh.StructuralBoucWen(

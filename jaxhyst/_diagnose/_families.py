@@ -278,11 +278,12 @@ class StructuralFamily(AbstractFamily):
         bounds = {
             "k": (1e-2 * sy / sx, 1e3 * sy / sx),
             "alpha": (-0.2, 1.0),
-            "beta": (-20 / sx, 1e3 / sx),
-            "gamma": (-20 / sx, 1e3 / sx),
+            "D": (1e-2 * sx, 3 * sx),
+            "beta": (-1.0, 5.0),
+            "gamma": (-1.0, 5.0),
             "n": (1.0, 3.0),
         }
-        return ParameterSpace(template, bounds, log_scale=["k"])
+        return ParameterSpace(template, bounds, log_scale=["k", "D"])
 
     def extend(self, base, recording):
         return StructuralBoucWen.around(

@@ -12,8 +12,9 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   h = 1 - zeta1*exp(-((z*sign(xdot) - q*zu)/zeta2)^2), zeta1 = pinch*(1 - exp(-pinch_rate*e)),
   zeta2 = pinch_width*zu*(pinch_lambda + zeta1), zu = (1/(beta + gamma))^(1/n)
   (OpenSees `BWBN` with zetas = pinch, q = pinch_shift, p = pinch_rate, Shi = pinch_width*zu);
-- asymmetry (push and pull differ): gamma -> gamma + skew*sign(z) (the hysteretic force
-  saturates at different levels on the two sides) and
+- asymmetry (push and pull differ): the shape term (beta*sign(xdot*z) + gamma)*|z|^n is
+  multiplied by 1 + yield_skew*sign(z) (the two sides yield at different levels,
+  zu*(1 + yield_skew*sign(z))^(-1/n), with the same loop shape) and
   F += alpha*k*stiffness_skew*|x| (the post-yield stiffness differs by side);
 - drift: F += offset + trend*s + curvature*(s^2 - 1/3) + wander*(5 s^3 - 3 s)/2
   (Legendre terms), s the time in [-1, 1]
@@ -64,7 +65,7 @@ class StructuralBoucWen(AbstractHysteresisModel):
     pinch_shift: Float[Array, ""] = _field(0.1)
     pinch_width: Float[Array, ""] = _field(0.3)
     pinch_rate: Float[Array, ""] = _field(5.0)
-    skew: Float[Array, ""] = _field(0.0)
+    yield_skew: Float[Array, ""] = _field(0.0)
     stiffness_skew: Float[Array, ""] = _field(0.0)
     offset: Float[Array, ""] = _field(0.0)
     trend: Float[Array, ""] = _field(0.0)
@@ -90,7 +91,7 @@ class StructuralBoucWen(AbstractHysteresisModel):
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
-        "skew",
+        "yield_skew",
         "stiffness_skew",
         "offset",
         "trend",
@@ -157,7 +158,7 @@ class StructuralBoucWen(AbstractHysteresisModel):
         )
 
     def bouc_wen_shape(self) -> BoucWenShape:
-        """(A, beta, gamma, n) of the undegraded, symmetric law (skew = 0)."""
+        """(A, beta, gamma, n) of the undegraded, symmetric law (yield_skew = 0)."""
         return BoucWenShape(
             self.A, self.beta, self.gamma, self.n, names=("A", "beta", "gamma", "n")
         )
@@ -176,8 +177,12 @@ class StructuralBoucWen(AbstractHysteresisModel):
         xdot = drive.udot
         nu = jnp.maximum(1 + self.strength_degradation * energy, 1e-2)
         eta = jnp.maximum(1 + self.stiffness_degradation * energy, 1e-2)
-        gamma = self.gamma + self.skew * s.sign(z)
-        shape = (self.beta * s.sign(xdot) * s.sign(z) + gamma) * s.abs_pow(z, self.n)
+        side = 1 + self.yield_skew * s.sign(z)
+        shape = (
+            (self.beta * s.sign(xdot) * s.sign(z) + self.gamma)
+            * side
+            * s.abs_pow(z, self.n)
+        )
         phi = self.A - nu * shape
         zu = self.saturation()
         zeta1 = self.pinch * (1 - jnp.exp(-self.pinch_rate * energy))

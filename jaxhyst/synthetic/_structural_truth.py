@@ -10,8 +10,9 @@ suite (`concealed_recording`).
 
 The truth is deliberately *not* written in the diagnosis catalogue's equations
 (`StructuralBoucWen`: Baber-Wen nu, eta linear in the hysteretic energy; Foliente's
-BWBN pinching whose depth grows with that energy; gamma + skew*sign(z) and a
-|x| stiffness skew; a Legendre drift), because real tests never follow them:
+BWBN pinching whose depth grows with that energy; the shape term times
+1 + yield_skew*sign(z) and a |x| stiffness skew; a Legendre drift), because real
+tests never follow them:
 
 ===========  ===============================================================
 effect       truth form (one per record, chosen by the key; name in `forms`)

@@ -9,18 +9,21 @@ from .base import (
     carries,
     conclude,
     fitted,
-    named_units,
-    power,
     share,
 )
 
 
+# |yield_skew| stays below this: a side whose shape term vanished would never yield.
+MOST_SKEW = 0.9
+
+
 class PushPullAsymmetry(AbstractEffect):
-    """`StructuralBoucWen`'s skew (the hysteretic force saturates at different
-    levels in push and pull) and stiffness_skew (different post-yield stiffness)."""
+    """`StructuralBoucWen`'s yield_skew (push and pull yield at different levels:
+    the shape term is scaled by 1 + yield_skew*sign(z)) and stiffness_skew
+    (different post-yield stiffness)."""
 
     name: ClassVar[str] = "asymmetry"
-    parameters: ClassVar[tuple[str, ...]] = ("skew", "stiffness_skew")
+    parameters: ClassVar[tuple[str, ...]] = ("yield_skew", "stiffness_skew")
     meaning: ClassVar[str] = (
         "push and pull differ (unsymmetric reinforcement, axial load, a wall "
         "rocking on one toe, a connection loaded against its grain)"
@@ -48,15 +51,19 @@ class PushPullAsymmetry(AbstractEffect):
         )
         return conclude([even, means])
 
+    def bounds(self, name, value, scales):
+        # 1 + yield_skew*sign(z) must stay positive on both sides.
+        return (-MOST_SKEW, MOST_SKEW) if name == "yield_skew" else None
+
     def units(self, *, time, input, output):
-        # With A = 1, z is a displacement and gamma*|z|^n is a pure number; the
-        # post-yield term alpha*k*stiffness_skew*|x| is a share of alpha*k*x.
-        u = named_units(time, input, output)
-        return {"skew": power(u.input, "-n"), "stiffness_skew": "1"}
+        # Both are pure numbers: yield_skew scales the shape term, stiffness_skew
+        # is a share of the post-yield term alpha*k*x.
+        return {"yield_skew": "1", "stiffness_skew": "1"}
 
     def reading(self, values, errors, units):
-        skew = values["skew"]
-        # gamma + skew*sign(z): a larger gamma saturates sooner, at a lower force.
+        skew = values["yield_skew"]
+        # (beta*sign(xdot*z) + gamma)*(1 + yield_skew*sign(z))*|z|^n: a larger shape
+        # term saturates sooner, at a lower force.
         if skew > 0:
             lower = "lower in push (z > 0) than in pull"
         elif skew < 0:
@@ -66,9 +73,10 @@ class PushPullAsymmetry(AbstractEffect):
         ss = values["stiffness_skew"]
         stiffer = "push" if ss > 0 else "pull" if ss < 0 else "neither side"
         return (
-            f"the hysteretic force saturates {lower} (gamma + skew*sign(z), skew = "
-            f"{fitted(values, errors, units, 'skew')}); the post-yield stiffness is "
-            f"(1 + s)*alpha*k in push and (1 - s)*alpha*k in pull with s = "
-            f"stiffness_skew = {fitted(values, errors, units, 'stiffness_skew')} "
+            f"the hysteretic force saturates {lower} (the yield level is "
+            "(1 + yield_skew*sign(z))^(-1/n) of the symmetric one, yield_skew = "
+            f"{fitted(values, errors, units, 'yield_skew')}); the post-yield "
+            "stiffness is (1 + s)*alpha*k in push and (1 - s)*alpha*k in pull with "
+            f"s = stiffness_skew = {fitted(values, errors, units, 'stiffness_skew')} "
             f"({stiffer} stiffer)"
         )
