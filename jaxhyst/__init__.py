@@ -7,6 +7,7 @@ from ._cache import enable_compilation_cache as enable_compilation_cache
 from ._compensate import (
     AbstractCompensationMethod as AbstractCompensationMethod,
     Compensation as Compensation,
+    DynamicInversion as DynamicInversion,
     OptimisedDrive as OptimisedDrive,
     PerSampleInversion as PerSampleInversion,
     compensate as compensate,

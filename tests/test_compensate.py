@@ -83,27 +83,41 @@ def test_per_sample_inversion_refuses_lagging_models(model, words):
         )
 
 
+_STAGE = jh.PiezoStage.from_piezo(PAPER, natural_frequency=15.0, damping_ratio=0.3)
+_DRIFTING_STAGE = jh.ExtendedPiezo.around(
+    PAPER, jh.InputPath(0.0, 1 / 500.0, np.zeros(1000))
+).replace(trend=0.05 * PAPER.k1, curvature=0.02 * PAPER.k1)
+_DRIFTING_STAGE = _DRIFTING_STAGE.with_dynamics(20.0, 0.4)
+
+
 @pytest.mark.parametrize(
-    "model, solver",
+    "model, solver, method, expected",
     [
+        (_STAGE, jh.RK4(substeps=4), None, "dynamic inversion"),
+        (_DRIFTING_STAGE, jh.RK4(substeps=4), None, "dynamic inversion"),
+        (_STAGE, jh.RK4(substeps=4), jh.OptimisedDrive(), "optimised drive"),
         (
-            jh.PiezoStage.from_piezo(PAPER, natural_frequency=15.0, damping_ratio=0.3),
-            jh.RK4(substeps=4),
+            jh.CorrectedPiezoBoucWen.from_piezo(PAPER, phi=0.03, eps=0.0),
+            jh.RK4(),
+            None,
+            "optimised drive",
         ),
-        (jh.CorrectedPiezoBoucWen.from_piezo(PAPER, phi=0.03, eps=0.0), jh.RK4()),
     ],
-    ids=["stage", "time_shift"],
+    ids=["stage", "stage_with_drift", "stage_optimised", "time_shift"],
 )
-def test_lagging_models_get_an_optimised_drive(model, solver):
+def test_lagging_models_get_a_drive_ahead_of_time(model, solver, method, expected):
     # A 2 Hz sine, fast enough that the lag matters: the quasi-static inverse
-    # tracks poorly on the lagging model; the optimised drive tracks it closely.
+    # tracks poorly on the lagging model; the stage's dynamic inversion and the
+    # optimised drive track it closely.
     t = np.arange(0.0, 2.0, 1 / 500.0)
     drive_made = 2 - 1.8 * np.cos(2 * np.pi * 2.0 * t)
     reference = np.asarray(
         jh.simulate(model, jh.InputPath(0.0, t[1], drive_made), solver)
     )
-    result = jh.compensate(model, t, reference, limits=(0.0, 4.0), solver=solver)
-    assert result.method == "optimised drive"
+    result = jh.compensate(
+        model, t, reference, limits=(0.0, 4.0), solver=solver, method=method
+    )
+    assert result.method == expected
     static = jh.compensate(
         jh.PiezoBoucWen(*(getattr(model, n) for n in jh.PiezoBoucWen.parameter_names)),
         t,
@@ -120,6 +134,18 @@ def test_lagging_models_get_an_optimised_drive(model, solver):
     again = jh.simulate(model, jh.InputPath(0.0, t[1], result.drive), solver)
     np.testing.assert_allclose(again, result.predicted, rtol=0, atol=1e-15)
     assert np.all((np.asarray(result.drive) > 0.0) & (np.asarray(result.drive) < 4.0))
+
+
+def test_dynamic_inversion_needs_stage_dynamics():
+    path = _path(100.0)
+    with pytest.raises(ValueError, match="no stage dynamics.*PerSampleInversion"):
+        jh.compensate(
+            PAPER,
+            np.asarray(path.times),
+            np.zeros(path.num_samples),
+            limits=(0.0, 5.0),
+            method=jh.DynamicInversion(),
+        )
 
 
 def test_compensate_bad_inputs():

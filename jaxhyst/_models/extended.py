@@ -215,7 +215,9 @@ class ExtendedPiezo(AbstractHysteresisModel):
             + self.creep_slower * (c_slower - u)
         )
 
-    def _drift(self, t):
+    def drift(self, t):
+        """The output's drift at time `t` (the Legendre terms), added after the
+        stage."""
         s = (t - self.time_center) / self.time_scale
         return (
             self.offset
@@ -290,7 +292,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
             response = state[4]
         else:
             response = self._static_output(t, state, drive)
-        return response + self._drift(t)
+        return response + self.drift(t)
 
     def initial_state(self, drive):
         u = jnp.asarray(drive.u)
