@@ -164,9 +164,12 @@ def main() -> None:
         for name, row in result["references"].items():
             cells = "  ".join(
                 f"{k} {v['rms_percent']:.3f}/{v['max_percent']:.2f}"
+                + (f" [{v['seconds']:.2f} s]" if "seconds" in v else "")
                 for k, v in row.items()
             )
-            print(f"  {name:<10} RMS/max % of stroke: {cells}", flush=True)
+            print(
+                f"  {name:<10} RMS/max % of stroke [compensate s]: {cells}", flush=True
+            )
     common.write_results(args.json, cases=results)
 
 

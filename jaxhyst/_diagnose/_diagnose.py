@@ -19,10 +19,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, PRNGKeyArray
 
-from .._identification._identify import identify
+from .._identification._identify import Fit, identify
 from .._inputs import InputPath
 from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel
+from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
 from .._simulate import RK4
@@ -249,28 +250,41 @@ def _base_fit(
     """The base model fitted on the fit mask (unless given), and the extended model
     around it with every effect off."""
     if base is None:
-        start = None
-        window = ctx.family.base_swarm_window(ctx.recording)
-        if window is not None and not ctx.records.several:
-            start = _windowed_start(ctx, window, swarm, progress)
         records = ctx.records
         several = records.several
-        fit = identify(
-            ctx.family.base_template(),
-            list(records.recordings) if several else ctx.recording,
-            key=ctx.key,
-            space=ctx.family.base_space(ctx.recording),
+        weights = (
+            [jnp.asarray(m, ctx.measured.dtype) for m in records.split(ctx.fit_mask)]
+            if several
+            else ctx.weights
+        )
+
+        def fit_base(space: ParameterSpace | None, **options: Any) -> Fit:
+            """The base model on every recording's fitted samples."""
+            return identify(
+                ctx.family.base_template(),
+                list(records.recordings) if several else ctx.recording,
+                key=ctx.key,
+                space=space,
+                solver=ctx.solver,
+                weights=weights,
+                analyse=False,
+                progress=progress,
+                throw=False,
+                **options,
+            )
+
+        start = None
+        window = ctx.family.base_swarm_window(ctx.recording)
+        swarm_space = ctx.family.base_swarm_space(ctx.recording)
+        if window is not None and not several:
+            start = _windowed_start(ctx, window, swarm, progress)
+        elif swarm_space is not None:
+            searched = fit_base(swarm_space, swarm=swarm, polish=None)
+            start = ctx.family.base_gauge(searched.model)
+        fit = fit_base(
+            ctx.family.base_space(ctx.recording),
             swarm=None if start is not None else swarm,
             start=start,
-            solver=ctx.solver,
-            weights=[
-                jnp.asarray(m, ctx.measured.dtype) for m in records.split(ctx.fit_mask)
-            ]
-            if several
-            else ctx.weights,
-            analyse=False,
-            progress=progress,
-            throw=False,
         )
         # A base fit that ran out of polish steps is refined by every later
         # refit; one whose output is not finite leaves nothing to diagnose.

@@ -128,6 +128,31 @@ class BoucWen(AbstractHysteresisModel):
             names=("A", "beta", "gamma", "n", "D"),
         )
 
+    def gauge_fixed(self) -> "BoucWen":
+        """The same force for every displacement history written with D = 1 and
+        A = 1: w = (D/A)*h obeys wdot = udot - beta'*|udot|*|w|^(n-1)*w -
+        gamma'*udot*|w|^n with (beta', gamma') = (beta, gamma)*A^(n-1)/D^n, and
+        (1 - alpha)*D*k*h = (1 - alpha)*k*A*w. Needs D > 0 and A > 0."""
+        D, A, n = self.D, self.A, self.n
+        if not (float(D) > 0 and float(A) > 0):
+            raise ValueError(
+                "BoucWen.gauge_fixed: needs D > 0 and A > 0 (got "
+                f"D={float(D):.4g}, A={float(A):.4g}); refit the model with "
+                "ParameterSpace.default, which fixes D = 1."
+            )
+        scale = A ** (n - 1) / D**n
+        hysteretic = (1 - self.alpha) * self.k * A
+        elastic = self.alpha * self.k
+        k = elastic + hysteretic
+        return self.replace(
+            k=k,
+            alpha=elastic / k,
+            D=1.0,
+            A=1.0,
+            beta=self.beta * scale,
+            gamma=self.gamma * scale,
+        )
+
 
 class PiezoBoucWen(AbstractHysteresisModel):
     """The paper's six-parameter quasi-static piezo model (eq. 7-8):

@@ -103,28 +103,15 @@ class StructuralBoucWen(AbstractHysteresisModel):
     @classmethod
     def from_bouc_wen(cls, base: BoucWen, **normalisers) -> "StructuralBoucWen":
         """The same restoring force written with A = 1 and no D (the gauge this
-        model is fitted in): w = (D/A)*h obeys wdot = xdot - beta'*|xdot|*|w|^(n-1)*w
-        - gamma'*xdot*|w|^n with (beta', gamma') = (beta, gamma)*A^(n-1)/D^n, and the
-        output (1 - alpha)*D*k*h = (1 - alpha)*k*A*w: exactly `base`'s force for every
-        displacement history. Needs A > 0 and D > 0."""
-        D, A, n = base.D, base.A, base.n
-        if not (float(D) > 0 and float(A) > 0):
-            raise ValueError(
-                "StructuralBoucWen.from_bouc_wen: the base model needs D > 0 and A > 0 "
-                f"(got D={float(D):.4g}, A={float(A):.4g}); refit it with "
-                "ParameterSpace.default, which fixes D = 1."
-            )
-        scale = A ** (n - 1) / D**n
-        hysteretic = (1 - base.alpha) * base.k * A
-        elastic = base.alpha * base.k
-        k = elastic + hysteretic
+        model is fitted in; `BoucWen.gauge_fixed`). Needs D > 0 and A > 0."""
+        fixed = base.gauge_fixed()
         return cls(
-            k,
-            elastic / k,
+            fixed.k,
+            fixed.alpha,
             1.0,
-            base.beta * scale,
-            base.gamma * scale,
-            n,
+            fixed.beta,
+            fixed.gamma,
+            fixed.n,
             smoothing=base.smoothing,
             **normalisers,
         )
