@@ -289,16 +289,10 @@ class StructuralFamily(AbstractFamily):
         # D = 1 and A = 1 fix the gauge (z -> c z leaves the force unchanged
         # otherwise): z is then a displacement that saturates at zu. The polish
         # runs here, where no direction is redundant.
-        sx, sy = _peaks(recording)
-        template = self.base_template().replace(D=1.0, A=1.0)
-        bounds = {
-            "k": (1e-2 * sy / sx, 1e3 * sy / sx),
-            "alpha": (-0.2, 1.0),
-            "beta": (-20 / sx, 1e3 / sx),
-            "gamma": (-20 / sx, 1e3 / sx),
-            "n": (1.0, 3.0),
-        }
-        return ParameterSpace(template, bounds, log_scale=["k"])
+        sx = _peaks(recording)[0]
+        return self._space(
+            recording, beta=(-20 / sx, 1e3 / sx), gamma=(-20 / sx, 1e3 / sx)
+        )
 
     def base_swarm_space(self, recording):
         # In base_space beta and gamma scale as zu^-n: for n near 2 the good region
@@ -308,17 +302,24 @@ class StructuralFamily(AbstractFamily):
         # (beta + gamma)^(-1/n), beta and gamma of order one): the same four reached
         # the noise. D and (beta, gamma) trade off along one direction (z -> c z),
         # which a swarm does not mind and a polish does: it runs in base_space.
+        sx = _peaks(recording)[0]
+        return self._space(
+            recording, D=(1e-2 * sx, 3 * sx), beta=(-1.0, 5.0), gamma=(-1.0, 5.0)
+        )
+
+    def _space(self, recording, **shape: tuple[float, float]) -> ParameterSpace:
+        """A base space: k (log scale), alpha and n in their boxes, A = 1, D = 1
+        unless searched, and the `shape` bounds (D, when given, on a log scale)."""
         sx, sy = _peaks(recording)
-        template = self.base_template().replace(D=1.0, A=1.0)
         bounds = {
             "k": (1e-2 * sy / sx, 1e3 * sy / sx),
             "alpha": (-0.2, 1.0),
-            "D": (1e-2 * sx, 3 * sx),
-            "beta": (-1.0, 5.0),
-            "gamma": (-1.0, 5.0),
+            **shape,
             "n": (1.0, 3.0),
         }
-        return ParameterSpace(template, bounds, log_scale=["k", "D"])
+        template = self.base_template().replace(D=1.0, A=1.0)
+        log_scale = ["k", "D"] if "D" in shape else ["k"]
+        return ParameterSpace(template, bounds, log_scale=log_scale)
 
     def base_gauge(self, model):
         return model_as(model, BoucWen, "structural family").gauge_fixed()
