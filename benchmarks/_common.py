@@ -409,7 +409,8 @@ def case_record(index: int, spec: dict, case, generated: float, **extra) -> dict
 
 def diagnosed(case, run: Callable[[], Any]) -> tuple[Any, dict]:
     """`run()`, the diagnosis of `case`, timed; returns the diagnosis and what every
-    suite records of it (the named effects, exact or not, the final residual)."""
+    suite records of it (the named effects, exact or not, the final residual, what
+    it reports as unexplained)."""
     start = time.perf_counter()
     diagnosis = run()
     wall = time.perf_counter() - start
@@ -423,6 +424,7 @@ def diagnosed(case, run: Callable[[], Any]) -> tuple[Any, dict]:
         "final_over_sigma": final / case.sigma,
         "seconds": float(seconds) if seconds is not None else wall,
         "wall_seconds": wall,
+        "unexplained": [u.description for u in diagnosis.unexplained],
     }
 
 
@@ -430,9 +432,10 @@ def verdict(r: dict, width: int) -> str:
     """The end of a diagnosed case's progress line: ok or MISS, named, final."""
     named = "+".join(r["named"]) or "none"
     mark = "ok " if r["exact"] else "MISS"
+    left = len(r.get("unexplained", []))
     return (
         f" | {mark} named {named:<{width}} final {r['final_over_sigma']:.2f} sigma "
-        f"{r['seconds']:.1f}s"
+        f"{r['seconds']:.1f}s" + (f" unexplained {left}" if left else "")
     )
 
 

@@ -93,7 +93,7 @@ def run_case(spec, index, args) -> dict[str, Any]:
             progress=args.progress,
         ),
     )
-    result.update(fields, unexplained=[u.description for u in diagnosis.unexplained])
+    result.update(fields)
     return result
 
 

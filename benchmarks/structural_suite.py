@@ -125,9 +125,7 @@ def run_case(spec, index, args, diagnose, family) -> dict[str, Any]:
         case,
         lambda: diagnose(case.recording, key=diagnose_key, family=family(), **options),
     )
-    result.update(
-        fields, unexplained=[str(u) for u in getattr(diagnosis, "unexplained", [])]
-    )
+    result.update(fields)
     return result
 
 
