@@ -221,6 +221,24 @@ def _static_inverse(
     return jnp.asarray(u0, target.dtype), at_limit
 
 
+def _stage_inverse(
+    model, stage, solver, times: np.ndarray, reference: Array, lo, hi, start
+) -> tuple[Array, Array]:
+    """(drive, at_limit): the static response the stage `stage` = (omega, zeta,
+    drift) needs for `reference`, y_s = y + (2 zeta/omega) ydot + yddot/omega^2
+    (the reference less the drift, by central differences), inverted by
+    `_static_inverse`."""
+    omega, zeta, drift = stage
+    dt = float(np.mean(np.diff(times)))
+    settled = np.asarray(reference) - drift(times)
+    rate = np.gradient(settled, dt, edge_order=2)
+    acceleration = np.gradient(rate, dt, edge_order=2)
+    target = reference + jnp.asarray(
+        (2 * zeta / omega) * rate + acceleration / omega**2, reference.dtype
+    )
+    return _static_inverse(model, solver, times, target, lo, hi, start)
+
+
 def _grid(times: np.ndarray, reference: Array, lo: float, hi: float):
     """(t0, dt, lo, hi) as arrays of the reference's dtype (traced, so new values
     do not recompile)."""
@@ -289,16 +307,8 @@ class DynamicInversion(AbstractCompensationMethod):
                 "DynamicInversion to invert; use method=PerSampleInversion() (models "
                 "without a lag) or OptimisedDrive() (a time shift)."
             )
-        omega, zeta, drift = stage
-        dt = float(np.mean(np.diff(times)))
-        settled = np.asarray(reference) - drift(times)
-        rate = np.gradient(settled, dt, edge_order=2)
-        acceleration = np.gradient(rate, dt, edge_order=2)
-        target = reference + jnp.asarray(
-            (2 * zeta / omega) * rate + acceleration / omega**2, reference.dtype
-        )
-        drive, at_limit = _static_inverse(
-            model, solver, times, target, lo, hi, self.start
+        drive, at_limit = _stage_inverse(
+            model, stage, solver, times, reference, lo, hi, self.start
         )
         t0, step, _, _ = _grid(times, reference, lo, hi)
         predicted = simulate(model, InputPath(t0, step, drive), solver, throw=False)
@@ -324,9 +334,10 @@ class OptimisedDrive(AbstractCompensationMethod):
             raise ValueError(f"OptimisedDrive(steps={k!r}): must be an integer >= 1.")
 
     def drive(self, model, solver, times, reference, lo, hi):
-        if _stage(model) is not None:
-            start, _, _ = DynamicInversion(self.start).drive(
-                model, solver, times, reference, lo, hi
+        stage = _stage(model)
+        if stage is not None:
+            start, _ = _stage_inverse(
+                model, stage, solver, times, reference, lo, hi, self.start
             )
         else:
             start, _ = _static_inverse(
