@@ -241,3 +241,30 @@ def test_gauge_fixing_keeps_the_bouc_wen_force():
     )
     with pytest.raises(ValueError, match="D > 0 and A > 0"):
         model.replace(D=-1.0).gauge_fixed()
+
+
+def test_two_effects_that_fail_alone_are_refitted_as_a_pair():
+    # The structural suite's case 10 (benchmarks/structural_suite.py --cases 1): a
+    # ductility-driven stiffness degradation and a slip gap under coloured noise,
+    # earthquake-like. Each alone leaves the other biasing the model: pinching
+    # lowered the held-out MSE by 27 where 32 was needed, degradation not at all,
+    # and nothing was named. Refitted together they pass; the backward check then
+    # tests each alone. Measured: pinching named, final 2.1 sigma (the truth's
+    # forms are not the catalogue's), 37 s.
+    generate, diagnose_key = jax.random.split(jax.random.fold_in(jax.random.key(0), 9))
+    case = structural_recording(
+        ("degradation", "pinching"),
+        key=generate,
+        noise="coloured",
+        protocol="earthquake",
+        points=2000,
+    )
+    family = jh.StructuralFamily()
+    assert family.default_policy().pair_refits
+    diagnosis = jh.diagnose(case.recording, key=diagnose_key, family=family)
+    assert "pinching" in diagnosis.effects
+    assert set(diagnosis.effects) <= {"degradation", "pinching"}
+    added = diagnosis.steps[1].label
+    assert added.startswith("pinching and degradation added"), added
+    pinching = next(f for f in diagnosis.findings if f.effect == "pinching")
+    assert pinching.validation.heldout_gain > 0

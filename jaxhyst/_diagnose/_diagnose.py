@@ -98,8 +98,11 @@ class _Trial(eqx.Module):
     validation: Validation
     null: tuple[AbstractHysteresisModel, np.ndarray] | None = None
     # Dependents refitted and adopted together with the effect (see
-    # `AbstractEffect.needs`).
+    # `AbstractEffect.needs`), or the effect it was paired with (`joint`).
     dependents: tuple[str, ...] = ()
+    # True when two independent candidates that failed alone were refitted as a
+    # pair (`_jointly`), False for an effect and what it `needs`.
+    joint: bool = False
 
 
 class _State(eqx.Module):
@@ -557,7 +560,7 @@ def _trial(
     null = None
     if ctx.policy.null_refit and validation.accepted:
         validation, rejection, null = _against_null(
-            ctx, state, score, effect, refitted, new_pred, extra_parameters=extra
+            ctx, state, score, effects, refitted, new_pred, extra_parameters=extra
         )
     together = tuple(e.name for e in dependents)
     score = dataclasses.replace(
@@ -609,23 +612,76 @@ def _with_dependents(
     )
 
 
+def _jointly(ctx: _Context, state: _State, trials: list[_Trial]) -> _Trial | None:
+    """When no candidate passed alone: the one that lowered the held-out error most,
+    refitted together with each other refitted candidate in turn (best held-out
+    error first); the first pair that passes validation, else None.
+
+    Two effects present at once bias the model each is added to alone (the base
+    parameters stand in for the other one), so each may fall short of the
+    adoption margin while the pair clears it. The pair is validated as one
+    candidate with both effects' parameters counted; the backward check then
+    tests each alone."""
+    family = ctx.family
+    alone = sorted(
+        (t for t in trials if not t.dependents),
+        key=lambda t: t.validation.heldout_rmse_after,
+    )
+    if len(alone) < 2:
+        return None
+    first = alone[0]
+    if not first.validation.heldout_rmse_after < first.validation.heldout_rmse_before:
+        return None
+    effect = family.effect(first.score.effect)
+    scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
+    for other in alone[1:]:
+        partner = family.effect(other.score.effect)
+        ctx.progress.say(
+            f"neither {effect.name} nor {partner.name} passed alone; refitting them "
+            "together"
+        )
+        start, _ = _best_start(
+            ctx, partner, first.model, other.score.step, scales, on=True
+        )
+        pair = _trial(
+            ctx,
+            state,
+            dataclasses.replace(first.score, validation=None, rejection=None),
+            (effect, partner),
+            start,
+            jax.random.fold_in(
+                ctx.key,
+                7919
+                + 100 * len(state.findings)
+                + family.effect_names.index(partner.name),
+            ),
+        )
+        if pair is not None and pair.validation.accepted:
+            return dataclasses.replace(pair, joint=True)
+    return None
+
+
 def _against_null(
     ctx: _Context,
     state: _State,
     score: Score,
-    effect: AbstractEffect,
+    effects: tuple[AbstractEffect, ...],
     refitted: AbstractHysteresisModel,
     predicted: np.ndarray,
     *,
     extra_parameters: int = 0,
 ) -> tuple[Validation, str | None, tuple[AbstractHysteresisModel, np.ndarray] | None]:
     """The candidate validated against the model it extends, refitted from the
-    candidate's refitted values with the effect switched off (when that null fits
+    candidate's refitted values with its effects switched off (when that null fits
     the held-out data better than the current model)."""
+    effect = effects[0]
+    switched_off = refitted
+    for each in effects:
+        switched_off = each.switch_off(switched_off)
     null = _refit(
         ctx,
         state,
-        effect.switch_off(refitted),
+        switched_off,
         state.free,
         max_steps=ctx.policy.candidate_steps,
     )
@@ -687,12 +743,18 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
     for dependent_name in winner.dependents:
         dependent = family.effect(dependent_name)
         v = winner.validation
+        why = (
+            f"neither it nor {name} passed held-out validation alone (each biases the "
+            "model the other is added to)"
+            if winner.joint
+            else f"it shows only through {name} (its score test has no direction "
+            f"while {name} is off) and {name} alone did not pass held-out validation"
+        )
         findings += (
             Finding(
                 dependent_name,
-                f"{dependent.meaning}. It shows only through {name} (its score test "
-                f"has no direction while {name} is off) and {name} alone did not "
-                "pass held-out validation, so the two were refitted together: adding "
+                f"{dependent.meaning}. {why[0].upper()}{why[1:]}, so the two were "
+                "refitted together: adding "
                 f"both lowered the held-out RMSE from {v.heldout_rmse_before:.3g} to "
                 f"{v.heldout_rmse_after:.3g}. The backward check tests each alone.",
                 family.describe(where_now),
@@ -818,6 +880,10 @@ def _forward(ctx: _Context, state: _State) -> _State:
             untried=untried,
         )
         if not passed:
+            pair = _jointly(ctx, state, trials) if ctx.policy.pair_refits else None
+            if pair is not None:
+                state = _adopt(ctx, state, [pair])
+                continue
             better = _better_base(ctx, state, trials)
             if better is not None:
                 # No effect, but a better basin for the model's own parameters:

@@ -283,7 +283,11 @@ class StructuralFamily(AbstractFamily):
     def default_policy(self):
         # Cyclic tests have a few hundred to a few thousand samples: the score
         # test's AR noise model absorbs smooth misfit there (see AdoptionPolicy).
-        return AdoptionPolicy(refit_runners_up=True, null_refit=True, noise_bound=True)
+        # Degradation and pinching often come together and each biases the base
+        # fit the other is added to: pairs are refitted when neither passes alone.
+        return AdoptionPolicy(
+            refit_runners_up=True, null_refit=True, noise_bound=True, pair_refits=True
+        )
 
     def base_space(self, recording):
         # D = 1 and A = 1 fix the gauge (z -> c z leaves the force unchanged

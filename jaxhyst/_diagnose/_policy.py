@@ -38,6 +38,11 @@ class AdoptionPolicy(eqx.Module):
       the model it extends refitted from the candidate's refitted values (the
       effect switched off): the candidate's swarm may have found a better basin for
       the parameters already in the model, and that gain is not the effect's.
+    - `pair_refits`: when no candidate passes alone, refit the one with the best
+      held-out error together with each other refitted candidate and adopt the
+      first pair that passes (the backward check then tests each alone). Two
+      effects present at once bias the model each is added to alone, so neither
+      may clear the margin by itself.
     """
 
     significance: float = 1e-6
@@ -52,6 +57,7 @@ class AdoptionPolicy(eqx.Module):
     refit_runners_up: bool = False
     null_refit: bool = False
     noise_bound: bool = False
+    pair_refits: bool = False
 
     def __check_init__(self):
         if not 0 < self.significance < 1:
