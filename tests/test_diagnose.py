@@ -75,7 +75,7 @@ def test_concealed_effect_is_named_and_fixed(effect):
     assert diagnosis.final_rmse < 1.3 * case.sigma
     finding = diagnosis.findings[0]
     assert finding.after["rmse"] < finding.before["rmse"]
-    assert finding.validation["accepted"]
+    assert finding.validation.accepted
 
 
 def test_diagnose_rejects_bad_input():
@@ -177,3 +177,44 @@ def test_a_large_concealed_effect_is_named_on_a_short_record():
     assert all(unit for unit in finding.units.values()) and finding.reading
     for name, value in finding.final_parameters.items():
         assert report["final"]["parameters"][name] == value
+
+
+def test_unexplained_structure_is_judged_against_the_residuals_own_noise():
+    from scipy.signal import lfilter
+
+    from jaxhyst._diagnose._unexplained import unexplained_structure
+
+    case = jh.synthetic.concealed_recording(
+        (), key=jax.random.key(0), duration=12.0, rate=500.0
+    )
+    recording, family = case.recording, jh.PiezoFamily()
+    fit = family.holdout(recording, 0.2)
+    policy = jh.AdoptionPolicy()
+
+    def coloured(seed, coefficient=0.9):
+        shocks = np.random.default_rng(seed).standard_normal(
+            recording.num_samples + 500
+        )
+        return lfilter([1.0], [1.0, -coefficient], shocks)[500:]
+
+    # Coloured noise alone: nothing (the probes' gains on it are what the
+    # residual's own AR noise gives).
+    for seed in range(3):
+        assert (
+            unexplained_structure(
+                recording, family, coloured(seed), fit, policy, seed=seed
+            )
+            == []
+        )
+    # A static function of the input, as large as the noise, that no effect
+    # removed: a loop-shaped mismatch, the same on both directions of motion.
+    u = np.asarray(recording.u)
+    level = (u - u.mean()) / np.std(u)
+    noise = coloured(7)
+    static = np.std(noise) * (level**3 - 3 * level) / np.std(level**3 - 3 * level)
+    found = unexplained_structure(
+        recording, family, noise + static, fit, policy, seed=7
+    )[0]
+    assert "function of the input's level and direction" in found.description
+    assert "the same on both directions of motion" in found.resembles
+    assert found.heldout_gain > 0.3

@@ -1311,7 +1311,8 @@ def diagnose(
        strongest significant candidates are refitted (best starting point, short
        swarm, Levenberg-Marquardt) and one is adopted only if it lowers the
        held-out error by more than its resolution and the policy's minimum gain and
-       lowers an information criterion on the fitted samples.
+       lowers an information criterion on the fitted samples. When none passes
+       alone, the policy may refit the best with each other one as a pair.
     4. Backward check, then swaps: effects that no longer earn their place are
        dropped, runners-up that explain the held-out data better replace them.
     5. Final refit on every sample, and the residual that remains structured on
@@ -1447,8 +1448,10 @@ def _diagnose(
             predicted=final_pred,
         )
     findings = _described(ctx, state, final_model, final_pred)
+    # The noise draws the unexplained probes are judged against, from the key.
+    draws_seed = int(jax.random.randint(jax.random.fold_in(key, 977), (), 0, 2**31 - 1))
     unexplained: list[Unexplained] = unexplained_structure(
-        recording, family, ctx.y - final_pred, fit_mask, policy
+        recording, family, ctx.y - final_pred, fit_mask, policy, seed=draws_seed
     )
     final_residual = ctx.y - final_pred
     centred = final_residual - final_residual.mean()
