@@ -2,9 +2,8 @@
 fast under jit/vmap/grad) and a diffrax adaptive solver (the reference)."""
 
 import abc
-from typing import Literal, overload
+from typing import TYPE_CHECKING, Literal, overload
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -12,6 +11,16 @@ from jaxtyping import Array, Float
 
 from ._inputs import InputPath
 from ._models.base import AbstractHysteresisModel
+
+
+if TYPE_CHECKING:
+    import diffrax
+
+
+def _tsit5() -> "diffrax.AbstractSolver":
+    import diffrax  # deferred: only the reference solver needs it (~0.15 s of import)
+
+    return diffrax.Tsit5()
 
 
 class AbstractSimulationSolver(eqx.Module):
@@ -188,12 +197,14 @@ class DiffraxSolver(AbstractSimulationSolver):
     interpolated input (or its rate) has a kink there.
     """
 
-    solver: diffrax.AbstractSolver = eqx.field(default_factory=diffrax.Tsit5)
+    solver: "diffrax.AbstractSolver" = eqx.field(default_factory=_tsit5)
     rtol: float = 1e-8
     atol: float = 1e-10
     max_steps: int = eqx.field(default=1_000_000, static=True)
 
     def states(self, model, inputs, initial_state):
+        import diffrax
+
         if model.sample_update(inputs) is not None:
             raise ValueError(
                 f"DiffraxSolver cannot integrate {type(model).__name__} in this "

@@ -227,3 +227,20 @@ def test_second_process_compiles_nothing_new(tmp_path):
     assert second["hits"] >= 1
     assert _entries(cache) == written
     assert second["sum"] == first["sum"]
+
+
+def test_the_package_starts_without_the_reference_solver():
+    # Every command pays for its imports; diffrax serves only `DiffraxSolver`
+    # (the reference), so it is imported when that solver is first built.
+    code = (
+        "import sys, jaxhyst, jaxhyst._cli._main\n"
+        "assert 'diffrax' not in sys.modules, 'diffrax imported at start'\n"
+        "solver = jaxhyst.DiffraxSolver()\n"
+        "assert 'diffrax' in sys.modules\n"
+        "print(type(solver.solver).__name__)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "Tsit5"

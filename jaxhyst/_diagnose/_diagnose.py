@@ -586,13 +586,13 @@ def _with_dependents(
     for dependent in dependents:
         # From the effect's own refit with the dependent switched on: at zero (a
         # lag of none) its derivative may not move it.
-        start, _ = _best_start(ctx, dependent, alone.model, {}, scales, on=True)
-        together = _trial(
+        together = _refit_with(
             ctx,
             state,
-            dataclasses.replace(alone.score, validation=None, rejection=None),
+            alone,
             (effect, dependent),
-            start,
+            {},
+            scales,
             jax.random.fold_in(key, 1 + ctx.family.effect_names.index(dependent.name)),
         )
         if together is not None and together.validation.accepted:
@@ -640,15 +640,13 @@ def _jointly(ctx: _Context, state: _State, trials: list[_Trial]) -> _Trial | Non
             f"neither {effect.name} nor {partner.name} passed alone; refitting them "
             "together"
         )
-        start, _ = _best_start(
-            ctx, partner, first.model, other.score.step, scales, on=True
-        )
-        pair = _trial(
+        pair = _refit_with(
             ctx,
             state,
-            dataclasses.replace(first.score, validation=None, rejection=None),
+            first,
             (effect, partner),
-            start,
+            other.score.step,
+            scales,
             jax.random.fold_in(
                 ctx.key,
                 7919
@@ -659,6 +657,29 @@ def _jointly(ctx: _Context, state: _State, trials: list[_Trial]) -> _Trial | Non
         if pair is not None and pair.validation.accepted:
             return dataclasses.replace(pair, joint=True)
     return None
+
+
+def _refit_with(
+    ctx: _Context,
+    state: _State,
+    alone: _Trial,
+    effects: tuple[AbstractEffect, AbstractEffect],
+    step: dict[str, float],
+    scales: RefitScales,
+    key: PRNGKeyArray,
+) -> _Trial | None:
+    """`alone`'s effect (`effects[0]`) refitted together with `effects[1]`, from
+    `alone`'s refit with the second switched on at its best starting point (from
+    its score-test `step`); validated as one candidate."""
+    start, _ = _best_start(ctx, effects[1], alone.model, step, scales, on=True)
+    return _trial(
+        ctx,
+        state,
+        dataclasses.replace(alone.score, validation=None, rejection=None),
+        effects,
+        start,
+        key,
+    )
 
 
 def _against_null(
