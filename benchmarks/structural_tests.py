@@ -256,7 +256,9 @@ def run_record(name, args, api, opensees, key) -> dict:
             "heldout_rms": final_rms,
             "heldout_nrmsd": final_rms / scale,
         },
-        "unexplained": [u.description for u in diagnosis.unexplained],
+        "unexplained": [
+            f"{u.description} ({u.resembles})" for u in diagnosis.unexplained
+        ],
         "ambiguities": [a.statement for a in diagnosis.ambiguities],
         "plain_fit": {
             "model": plain["model"],

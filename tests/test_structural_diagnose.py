@@ -290,5 +290,11 @@ def test_a_stiffening_outside_the_catalogue_is_reported_as_unexplained():
     assert diagnosis.final_rmse > 2 * sigma
     (left,) = diagnosis.unexplained
     assert "a static function of the input" in left.resembles
+    # The effects the record could not decide on are named with it (part of the
+    # structure may be theirs).
+    undecided = {name for a in diagnosis.ambiguities for name in a.undecided}
+    assert undecided
+    assert all(name in left.description for name in undecided)
+    assert "could not decide whether" in left.description
     assert left.heldout_gain > 0.2
     assert diagnosis.to_dict()["unexplained"][0]["resembles"] == left.resembles

@@ -1471,8 +1471,22 @@ def _diagnose(
     findings = _described(ctx, state, final_model, final_pred)
     # The noise draws the unexplained probes are judged against, from the key.
     draws_seed = int(jax.random.randint(jax.random.fold_in(key, 977), (), 0, 2**31 - 1))
+    undecided = tuple(
+        dict.fromkeys(
+            name
+            for a in state.ambiguities
+            for name in a.undecided
+            if name not in state.adopted
+        )
+    )
     unexplained: list[Unexplained] = unexplained_structure(
-        recording, family, ctx.y - final_pred, fit_mask, policy, seed=draws_seed
+        recording,
+        family,
+        ctx.y - final_pred,
+        fit_mask,
+        policy,
+        seed=draws_seed,
+        undecided=undecided,
     )
     final_residual = ctx.y - final_pred
     centred = final_residual - final_residual.mean()

@@ -110,6 +110,7 @@ def unexplained_structure(
     *,
     seed: int,
     draws: int = 200,
+    undecided: tuple[str, ...] = (),
 ) -> list[Unexplained]:
     """Structured mismatch left on held-out data: for each probe (a function of the
     input's level and direction; a slow function of time), the bin means of the
@@ -120,7 +121,9 @@ def unexplained_structure(
     the whole residual; `seed` draws them): structure, not noise of the colour the
     residual has, and not one of the catalogue's effects, which the diagnosis has
     already tried. A slow noise and a slow drift look alike to the time probe, so
-    a residual whose colour is all slow wander is not reported."""
+    a residual whose colour is all slow wander is not reported. `undecided`: the
+    catalogue effects the record could not decide on (named in each report: part
+    of the structure may be theirs)."""
     hold = ~fit_mask
     x = np.asarray(recording.u)
     if float(np.mean(residual[hold] ** 2)) <= 0:
@@ -157,6 +160,12 @@ def unexplained_structure(
                 "a structured mismatch no effect of the catalogue removed: a slow "
                 "function of time, learnt on the fitted samples, predicts "
                 f"{gain:.0%} of the held-out residual's MSE"
+            )
+        if undecided:
+            description += (
+                f"; the record could not decide whether {' or '.join(undecided)} "
+                f"{'is' if len(undecided) == 1 else 'are'} present (see the "
+                "ambiguities), and part of it may be theirs"
             )
         found.append(Unexplained(description, where, change, gain, resembles))
     return found
