@@ -84,9 +84,9 @@ def _probe_gain(labels: np.ndarray, residual: np.ndarray, fit: np.ndarray) -> fl
     return (before - float(np.mean((residual - prediction)[hold] ** 2))) / before
 
 
-def _noise_draws(noise: NoiseModel, n: int, draws: int, seed: int) -> np.ndarray:
-    """`draws` series of `n` samples of the residual's AR noise (a burn-in first;
-    an AR fit at the edge of stationarity is pulled inside it)."""
+def _noise_draws(noise: NoiseModel, n: int, draws: int, seed: int):
+    """`draws` series of `n` samples of the residual's AR noise, one at a time (a
+    burn-in first; an AR fit at the edge of stationarity is pulled inside it)."""
     from scipy.signal import lfilter  # deferred: scipy.signal costs import time
 
     ar = np.asarray(noise.ar, float)
@@ -94,11 +94,12 @@ def _noise_draws(noise: NoiseModel, n: int, draws: int, seed: int) -> np.ndarray
     largest = float(np.max(np.abs(roots), initial=0.0))
     if largest >= 0.999:
         ar = ar * (0.999 / largest) ** np.arange(1, ar.size + 1)
+    denominator = np.concatenate([[1.0], -ar])
     burn = 1000
     rng = np.random.default_rng(seed)
-    shocks = rng.standard_normal((draws, n + burn)) * math.sqrt(noise.innovation_var)
-    filtered = np.asarray(lfilter([1.0], np.concatenate([[1.0], -ar]), shocks, axis=1))
-    return filtered[:, burn:]
+    for _ in range(draws):
+        shocks = rng.standard_normal(n + burn) * math.sqrt(noise.innovation_var)
+        yield np.asarray(lfilter([1.0], denominator, shocks))[burn:]
 
 
 def unexplained_structure(
@@ -128,17 +129,21 @@ def unexplained_structure(
     x = np.asarray(recording.u)
     if float(np.mean(residual[hold] ** 2)) <= 0:
         return []
-    noise = NoiseModel.estimate(residual)
-    series = _noise_draws(noise, residual.size, draws, seed)
-    found = []
     probes = (
         ("loop", _loop_labels(x)),
         ("trend", _time_labels(residual.size)),
     )
-    for kind, labels in probes:
+    noise = NoiseModel.estimate(residual)
+    null = np.array(
+        [
+            [_probe_gain(labels, draw, fit_mask) for _, labels in probes]
+            for draw in _noise_draws(noise, residual.size, draws, seed)
+        ]
+    ).reshape(draws, len(probes))
+    found = []
+    for (kind, labels), gains in zip(probes, null.T, strict=True):
         gain = _probe_gain(labels, residual, fit_mask)
-        null = [_probe_gain(labels, draw, fit_mask) for draw in series]
-        if gain <= max(policy.min_heldout_gain, float(np.quantile(null, 0.995))):
+        if gain <= max(policy.min_heldout_gain, float(np.quantile(gains, 0.995))):
             continue
         prediction = _bin_predictor(labels, residual, fit_mask)
         change = float(np.sqrt(np.mean(prediction[hold] ** 2)))
