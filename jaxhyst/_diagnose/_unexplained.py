@@ -133,17 +133,22 @@ def unexplained_structure(
         ("loop", _loop_labels(x)),
         ("trend", _time_labels(residual.size)),
     )
+    gains = {kind: _probe_gain(labels, residual, fit_mask) for kind, labels in probes}
+    # Only probes above the floor are compared with the noise draws.
+    probes = tuple(p for p in probes if gains[p[0]] > policy.min_heldout_gain)
+    if not probes:
+        return []
     noise = NoiseModel.estimate(residual)
     null = np.array(
         [
             [_probe_gain(labels, draw, fit_mask) for _, labels in probes]
             for draw in _noise_draws(noise, residual.size, draws, seed)
         ]
-    ).reshape(draws, len(probes))
+    )
     found = []
-    for (kind, labels), gains in zip(probes, null.T, strict=True):
-        gain = _probe_gain(labels, residual, fit_mask)
-        if gain <= max(policy.min_heldout_gain, float(np.quantile(gains, 0.995))):
+    for (kind, labels), drawn in zip(probes, null.T, strict=True):
+        gain = gains[kind]
+        if gain <= float(np.quantile(drawn, 0.995)):
             continue
         prediction = _bin_predictor(labels, residual, fit_mask)
         change = float(np.sqrt(np.mean(prediction[hold] ** 2)))
