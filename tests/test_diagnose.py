@@ -218,3 +218,51 @@ def test_unexplained_structure_is_judged_against_the_residuals_own_noise():
     assert "function of the input's level and direction" in found.description
     assert "the same on both directions of motion" in found.resembles
     assert found.heldout_gain > 0.3
+
+
+def _oversampled(series: np.ndarray, density: int, rng) -> np.ndarray:
+    grid = np.linspace(0, 1, series.size)
+    fine = np.linspace(0, 1, series.size * density)
+    return np.interp(fine, grid, series) + 1e-3 * rng.standard_normal(fine.size)
+
+
+def test_effective_samples_read_across_strides_do_not_fall_with_density():
+    # A smooth misfit (a high-passed random walk) sampled 4 to 64 times more
+    # densely: at full density the AR(2) count jumps around and collapses; read
+    # across strides it stays put.
+    from jaxhyst._diagnose._score import NoiseModel
+
+    rng = np.random.default_rng(0)
+    walk = np.cumsum(rng.standard_normal(1000))
+    walk -= np.convolve(walk, np.ones(101) / 101, "same")
+    counts, dense_counts = [], []
+    for density in (4, 16, 64):
+        series = _oversampled(walk, density, rng)
+        dense = NoiseModel.estimate(series)
+        strided = NoiseModel.estimate(series, across_strides=True)
+        dense_counts.append(dense.effective_ratio * series.size)
+        counts.append(strided.effective_ratio * series.size)
+    assert max(counts) < 1.5 * min(counts)
+    assert min(dense_counts) < 0.5 * min(counts)
+
+
+@pytest.mark.parametrize("coefficient", [0.0, 0.88])
+def test_effective_samples_across_strides_leave_ar_noise_alone(coefficient):
+    from jaxhyst._diagnose._score import NoiseModel
+
+    rng = np.random.default_rng(1)
+    shocks = rng.standard_normal(20000)
+    noise = np.zeros_like(shocks)
+    for i in range(1, noise.size):
+        noise[i] = coefficient * noise[i - 1] + shocks[i]
+    dense = NoiseModel.estimate(noise).effective_ratio
+    strided = NoiseModel.estimate(noise, across_strides=True).effective_ratio
+    expected = (1 - coefficient) / (1 + coefficient)
+    assert strided == pytest.approx(dense, rel=0.1)
+    assert strided == pytest.approx(expected, rel=0.1)
+
+
+def test_only_the_structural_family_reads_its_noise_across_strides():
+    assert jh.StructuralFamily().default_policy().noise_across_strides
+    assert not jh.PiezoFamily().default_policy().noise_across_strides
+    assert not jh.DamperFamily().default_policy().noise_across_strides

@@ -377,7 +377,10 @@ def _score_round(
     # The noise's colour, read from what no candidate explains.
     everything = np.concatenate([p for _, p in projected.values()], axis=1)
     coef, *_ = np.linalg.lstsq(everything, residual * w, rcond=None)
-    noise = NoiseModel.estimate((residual * w - everything @ coef)[ctx.fit_mask])
+    noise = NoiseModel.estimate(
+        (residual * w - everything @ coef)[ctx.fit_mask],
+        across_strides=ctx.policy.noise_across_strides,
+    )
     scores = []
     for effect in remaining:
         cols, perp = projected[effect.name]

@@ -285,8 +285,14 @@ class StructuralFamily(AbstractFamily):
         # test's AR noise model absorbs smooth misfit there (see AdoptionPolicy).
         # Degradation and pinching often come together and each biases the base
         # fit the other is added to: pairs are refitted when neither passes alone.
+        # The pseudo time's sampling density is the data logger's choice: the
+        # noise's effective count must not fall as it grows.
         return AdoptionPolicy(
-            refit_runners_up=True, null_refit=True, noise_bound=True, pair_refits=True
+            refit_runners_up=True,
+            null_refit=True,
+            noise_bound=True,
+            pair_refits=True,
+            noise_across_strides=True,
         )
 
     def base_space(self, recording):

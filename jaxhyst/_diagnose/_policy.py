@@ -38,6 +38,11 @@ class AdoptionPolicy(eqx.Module):
       the model it extends refitted from the candidate's refitted values (the
       effect switched off): the candidate's swarm may have found a better basin for
       the parameters already in the model, and that gain is not the effect's.
+    - `noise_across_strides`: read the noise model's effective sample count also
+      at coarser strides and keep the largest (`NoiseModel.estimate`). For records
+      whose sampling density is arbitrary (quasi-static tests in pseudo time): a
+      record sampled ten times more densely then counts as many held-out samples,
+      not fewer.
     - `pair_refits`: when no candidate passes alone, refit the one with the best
       held-out error together with each other refitted candidate and adopt the
       first pair that passes (the backward check then tests each alone). Two
@@ -57,6 +62,7 @@ class AdoptionPolicy(eqx.Module):
     refit_runners_up: bool = False
     null_refit: bool = False
     noise_bound: bool = False
+    noise_across_strides: bool = False
     pair_refits: bool = False
 
     def __check_init__(self):

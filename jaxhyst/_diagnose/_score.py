@@ -80,6 +80,17 @@ def moving_columns(cols: np.ndarray) -> np.ndarray:
     return cols[:, norms > 1e-9 * max(float(norms.max(initial=0.0)), 1e-300)]
 
 
+# The fewest samples an AR(2) is read from at a coarser stride.
+MIN_STRIDED = 200
+
+
+def _effective_ratio(series: np.ndarray, ar: np.ndarray, innovation: float) -> float:
+    """N_eff / N of `series` under its AR model: its variance over the AR's
+    long-run variance (clipped to [1e-4, 1])."""
+    long_run = innovation / max(1e-12, (1 - float(np.sum(ar)))) ** 2
+    return min(1.0, max(1e-4, float(np.var(series)) / long_run))
+
+
 class NoiseModel(eqx.Module):
     """The residual noise the score test and the held-out comparisons assume: an
     AR(2) colour read from what no candidate explains, its innovation variance,
@@ -92,11 +103,32 @@ class NoiseModel(eqx.Module):
     effective_ratio: float
 
     @classmethod
-    def estimate(cls, unexplained: np.ndarray) -> "NoiseModel":
+    def estimate(
+        cls, unexplained: np.ndarray, *, across_strides: bool = False
+    ) -> "NoiseModel":
+        """The AR(2) noise model of `unexplained`.
+
+        `across_strides`: also read the effective-sample ratio from every 2nd,
+        4th, 8th, ... sample (while at least `MIN_STRIDED` remain) and keep the
+        largest count. An AR(2) read at full density from a residual sampled far
+        more densely than it varies (a quasi-static test in pseudo time) takes its
+        smoothness for a near-unit root and counts a few effective samples in
+        thousands, fewer the denser the record; read coarser, the same residual
+        shows how many independent wiggles it has. For AR noise the strides agree
+        (an AR(1) with coefficient a at stride s has coefficient a^s and s times
+        fewer samples), so the count is unchanged. Families whose time axis only
+        orders the samples switch it on (`AdoptionPolicy.noise_across_strides`)."""
         ar = whitening_filter(unexplained)
         innovation = float(np.var(whiten(unexplained, ar)[len(ar) :]))
-        long_run = innovation / max(1e-12, (1 - float(np.sum(ar)))) ** 2
-        ratio = min(1.0, max(1e-4, float(np.var(unexplained)) / long_run))
+        ratio = _effective_ratio(unexplained, ar, innovation)
+        stride = 2
+        while across_strides and unexplained.size // stride >= MIN_STRIDED:
+            coarse = unexplained[::stride]
+            coarse_ar = whitening_filter(coarse)
+            coarse_innovation = float(np.var(whiten(coarse, coarse_ar)[2:]))
+            coarse_ratio = _effective_ratio(coarse, coarse_ar, coarse_innovation)
+            ratio = max(ratio, coarse_ratio / stride)
+            stride *= 2
         return cls(ar, innovation, float(np.std(unexplained)), ratio)
 
     def resolution(
