@@ -166,6 +166,8 @@ def test_a_gain_the_record_cannot_resolve_is_said_so():
     assert message.statement.startswith("cannot tell whether degradation is present")
     assert message.undecided == ("degradation",)
     assert "29%" in message.statement and "8 effective" in message.statement
+    # The advice is more cycles: denser sampling of the same cycles adds nothing.
+    assert message.statement.endswith("Record more cycles to decide.")
     # Not said: a gain the record resolves (then it was rejected for another
     # reason), a gain below the floor, a worse fit, an accepted candidate.
     assert unresolved([("degradation", validation(0.84, 0.1))]) == []

@@ -63,8 +63,8 @@ def unresolved(
             f"error by {gain / before:.0%}, but this record's held-out data resolve "
             f"only MSE changes above {v.heldout_resolution_mse:.3g} (the residual is "
             f"smooth and strongly correlated: about {v.effective_samples_heldout:.0f} "
-            "effective held-out samples). Record more cycles (or more samples per "
-            "cycle) to decide."
+            "effective held-out samples; sampling the same cycles more densely "
+            "adds none). Record more cycles to decide."
         )
         messages.append(Ambiguity(statement, (effect,)))
     return messages
