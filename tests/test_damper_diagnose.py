@@ -58,6 +58,8 @@ SWITCHED_ON = dict(
     wander=5.0,
     skew=0.2,
     damping_skew=-0.1,
+    legendre4=4.0,
+    legendre5=-3.0,
 )
 
 
@@ -102,6 +104,27 @@ def test_every_effect_off_is_the_fixed_field_damper():
             rtol=0,
             atol=1e-9,
         )
+
+
+def test_the_offset_s_terms_are_legendre_polynomials_of_degree_1_to_5():
+    # A zero that goes back and forth: each term adds its Legendre polynomial of
+    # the time scaled to [-1, 1] (curvature's is s^2 - 1/3 = 2/3 P2), and the five
+    # are orthogonal over the record.
+    path = _path()
+    extended = jh.ExtendedDamper.around(_base(), path, 500.0)
+    off = np.asarray(jh.simulate(extended, path, SOLVER))
+    s = np.linspace(-1.0, 1.0, off.size)
+    names = ("trend", "curvature", "wander", "legendre4", "legendre5")
+    columns = []
+    for degree, name in enumerate(names, start=1):
+        on = np.asarray(jh.simulate(extended.replace(**{name: 2.0}), path, SOLVER))
+        legendre = np.polynomial.legendre.Legendre.basis(degree)(s)
+        legendre *= 2 / 3 if name == "curvature" else 1.0
+        np.testing.assert_allclose(on - off, 2.0 * legendre, rtol=0, atol=1e-9)
+        columns.append(legendre)
+    gram = np.corrcoef(np.stack(columns))
+    assert np.max(np.abs(gram - np.eye(5))) < 0.05
+    assert jh.DamperFamily().effect("offset").parameters == names
 
 
 def test_the_lagged_field_is_exact_per_sample_and_continuous_at_zero():

@@ -26,8 +26,9 @@ normalisers set by `around` from the record, not fitted):
   the force then rolls off at low velocity near reversals;
 - offset: the force's zero moves along the record (the accumulator's preload as the
   gas warms, a load-cell zero drifting): F += trend*s + curvature*(s^2 - 1/3) +
-  wander*(5 s^3 - 3 s)/2, s the time in [-1, 1] (Legendre terms; the constant is
-  the base's f0);
+  wander*(5 s^3 - 3 s)/2 + legendre4*P4(s) + legendre5*P5(s), s the time in
+  [-1, 1] (the Legendre polynomials of degree 1 to 5; the constant is the base's
+  f0);
 - asymmetry: compression and extension differ: gamma -> gamma +
   skew*(beta + gamma)*sign(z) (the hysteretic force saturates at different levels
   on the two sides) and c0 -> c0*(1 + damping_skew*sign(xdot)) (the valving damps
@@ -105,6 +106,8 @@ class ExtendedDamper(AbstractHysteresisModel):
     wander: Float[Array, ""] = _field(0.0)
     skew: Float[Array, ""] = _field(0.0)
     damping_skew: Float[Array, ""] = _field(0.0)
+    legendre4: Float[Array, ""] = _field(0.0)
+    legendre5: Float[Array, ""] = _field(0.0)
     command_scale: Float[Array, ""] = _normaliser(1.0)
     damping_scale: Float[Array, ""] = _normaliser(1.0)
     time_center: Float[Array, ""] = _normaliser(0.0)
@@ -123,6 +126,8 @@ class ExtendedDamper(AbstractHysteresisModel):
         "wander",
         "skew",
         "damping_skew",
+        "legendre4",
+        "legendre5",
     )
     state_size: ClassVar[int] = 2
     input_names: ClassVar[tuple[str, ...]] = ("displacement", "command")
@@ -284,6 +289,8 @@ class ExtendedDamper(AbstractHysteresisModel):
             + self.trend * s
             + self.curvature * (s**2 - 1.0 / 3.0)
             + self.wander * (5 * s**3 - 3 * s) / 2
+            + self.legendre4 * (35 * s**4 - 30 * s**2 + 3) / 8
+            + self.legendre5 * (63 * s**5 - 70 * s**3 + 15 * s) / 8
         )
 
     def initial_state(self, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
