@@ -1,5 +1,6 @@
 """The `jaxhyst` command line (run in-process through `main`) and the plot helpers."""
 
+import dataclasses
 import io
 import json
 import math
@@ -549,6 +550,43 @@ def test_diagnose_analyses_the_window(short_recording, monkeypatch, capsys):
     with pytest.raises(Stop):
         main(["diagnose", str(short_recording)])
     assert seen[0].num_samples == 2001
+
+
+def test_diagnose_passes_the_minimum_held_out_gain(
+    short_recording, monkeypatch, capsys
+):
+    """--min-heldout-gain replaces the family's default in the policy diagnose
+    gets (the rest of the policy kept); without it the family's default is used."""
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def stub(recording, **kwargs):
+        seen.append(kwargs)
+        raise Stop
+
+    monkeypatch.setattr("jaxhyst._cli._diagnose.diagnose", stub)
+    argv = ["diagnose", str(short_recording)]
+    with pytest.raises(Stop):
+        main([*argv, "--min-heldout-gain", "0.02"])
+    policy = seen[0]["policy"]
+    default = jh.PiezoFamily().default_policy()
+    assert policy.min_heldout_gain == 0.02
+    assert policy == dataclasses.replace(default, min_heldout_gain=0.02)
+    with pytest.raises(Stop):
+        main(argv)
+    assert seen[1]["policy"] is None
+
+
+@pytest.mark.parametrize("value", ["1.5", "-0.1"])
+def test_a_bad_minimum_held_out_gain_is_a_one_line_error(
+    value, short_recording, capsys
+):
+    argv = ["diagnose", str(short_recording), "--min-heldout-gain", value]
+    assert main(argv) == 2
+    line = _one_error_line(capsys)
+    assert f"--min-heldout-gain {float(value)}" in line and "[0, 1)" in line
 
 
 @pytest.mark.parametrize(

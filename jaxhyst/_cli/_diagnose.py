@@ -2,12 +2,14 @@
 summary, JSON, figures, Markdown and HTML report."""
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 import jax
 
 from .._diagnose._diagnose import diagnose
 from .._diagnose._families import EFFECT_NAMES, DamperFamily
+from .._diagnose._policy import AdoptionPolicy
 from .._files import prepare_parent
 from .._model_files import EMBEDDED_KEY
 from .._plots import require_matplotlib
@@ -82,6 +84,16 @@ def add_parser(subparsers) -> None:
         "test ran at one fixed command; V is that level (the field's effects are then "
         "not asked about, and the report says why).",
     )
+    parser.add_argument(
+        "--min-heldout-gain",
+        type=float,
+        default=None,
+        metavar="FRACTION",
+        help="the smallest drop of the held-out mean squared error an effect must "
+        "bring to be adopted (default: the family's policy, 0.05). Lower it on long, "
+        "quiet records (tens of thousands of samples) to report smaller effects; the "
+        "drop must still beat the record's noise.",
+    )
     add_swarm_options(parser, presets=False)
     parser.add_argument(
         "--json",
@@ -143,8 +155,23 @@ def _load(args: argparse.Namespace, chosen) -> list[Recording]:
     return recordings
 
 
+def _policy(args: argparse.Namespace, chosen) -> AdoptionPolicy | None:
+    """The family's default policy with --min-heldout-gain, or None (the default)."""
+    if args.min_heldout_gain is None:
+        return None
+    if not 0 <= args.min_heldout_gain < 1:
+        raise ValueError(
+            f"--min-heldout-gain {args.min_heldout_gain}: must be a fraction in "
+            "[0, 1) of the held-out mean squared error, e.g. 0.02."
+        )
+    return dataclasses.replace(
+        chosen.default_policy(), min_heldout_gain=args.min_heldout_gain
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     chosen = family(args.model)
+    policy = _policy(args, chosen)
     swarm = diagnosis_swarm(args)
     files: list[tuple[str, Path]] = []
     json_path = Path(args.json) if args.json is not None else None
@@ -170,9 +197,14 @@ def run(args: argparse.Namespace) -> int:
         recordings if len(recordings) > 1 else recording,
         key=jax.random.key(args.seed),
         family=chosen,
+        policy=policy,
         swarm=swarm,
         progress=True,
     )
+    if policy is not None:
+        print(
+            f"minimum held-out gain: {policy.min_heldout_gain:.3g} (--min-heldout-gain)"
+        )
     line = window_line(args, recording)
     if line is not None:
         print(line)
