@@ -526,57 +526,55 @@ def test_fit_window_cuts_the_record(short_recording, tmp_path, capsys):
     assert data["window"] == {"start": 6.0, "end": None, "time_unit": "s"}
 
 
-def test_diagnose_analyses_the_window(short_recording, monkeypatch, capsys):
-    """diagnose gets the cut recording, with its original time stamps (the
-    diagnosis itself is replaced by a stub: the window is all that is tested)."""
+class _Stop(Exception):
+    pass
+
+
+@pytest.fixture
+def stopped_diagnose(monkeypatch):
+    """`diagnose` replaced by a stub that records what the CLI passes it (the
+    recording and the keyword arguments) and stops with `_Stop`."""
     seen = []
 
-    class Stop(Exception):
-        pass
-
     def stub(recording, **kwargs):
-        seen.append(recording)
-        raise Stop
+        seen.append((recording, kwargs))
+        raise _Stop
 
     monkeypatch.setattr("jaxhyst._cli._diagnose.diagnose", stub)
-    with pytest.raises(Stop):
+    return seen
+
+
+def test_diagnose_analyses_the_window(short_recording, stopped_diagnose):
+    """diagnose gets the cut recording, with its original time stamps (the
+    diagnosis itself is replaced by a stub: the window is all that is tested)."""
+    seen = stopped_diagnose
+    with pytest.raises(_Stop):
         main(["diagnose", str(short_recording), "--start", "1.5", "--end", "7"])
-    (recording,) = seen
+    ((recording, _),) = seen
     assert recording.num_samples == 1376  # 5.5 s at 250 Hz
     assert recording.t[0] == pytest.approx(1.5) and recording.t[-1] == pytest.approx(7)
     full = jh.Recording.load(short_recording)
     np.testing.assert_array_equal(recording.y, full.y[375:1751])
     seen.clear()
-    with pytest.raises(Stop):
+    with pytest.raises(_Stop):
         main(["diagnose", str(short_recording)])
-    assert seen[0].num_samples == 2001
+    assert seen[0][0].num_samples == 2001
 
 
-def test_diagnose_passes_the_minimum_held_out_gain(
-    short_recording, monkeypatch, capsys
-):
+def test_diagnose_passes_the_minimum_held_out_gain(short_recording, stopped_diagnose):
     """--min-heldout-gain replaces the family's default in the policy diagnose
     gets (the rest of the policy kept); without it the family's default is used."""
-    seen = []
-
-    class Stop(Exception):
-        pass
-
-    def stub(recording, **kwargs):
-        seen.append(kwargs)
-        raise Stop
-
-    monkeypatch.setattr("jaxhyst._cli._diagnose.diagnose", stub)
+    seen = stopped_diagnose
     argv = ["diagnose", str(short_recording)]
-    with pytest.raises(Stop):
+    with pytest.raises(_Stop):
         main([*argv, "--min-heldout-gain", "0.02"])
-    policy = seen[0]["policy"]
+    policy = seen[0][1]["policy"]
     default = jh.PiezoFamily().default_policy()
     assert policy.min_heldout_gain == 0.02
     assert policy == dataclasses.replace(default, min_heldout_gain=0.02)
-    with pytest.raises(Stop):
+    with pytest.raises(_Stop):
         main(argv)
-    assert seen[1]["policy"] is None
+    assert seen[1][1]["policy"] is None
 
 
 @pytest.mark.parametrize("value", ["1.5", "-0.1"])
