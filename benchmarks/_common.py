@@ -272,7 +272,9 @@ class FigureWriter:
 
 def screened(summary: dict) -> list[dict]:
     """Every candidate of `Diagnosis.to_dict()["candidates"]`, round by round: its
-    score statistic, whether it was significant and passed held-out validation."""
+    score statistic, whether it was significant and passed held-out validation, and
+    why it was not adopted (`rejected`: the diagnosis's reason, e.g. "the refitted
+    model diverged")."""
     rows = []
     for index, round_ in enumerate(summary["candidates"]):
         for c in round_:
@@ -287,7 +289,7 @@ def screened(summary: dict) -> list[dict]:
                     "accepted": bool(validation.get("accepted", False)),
                     "heldout_rmse_before": validation.get("heldout_rmse_before"),
                     "heldout_rmse_after": validation.get("heldout_rmse_after"),
-                    "refit_error": c.get("refit_error"),
+                    "rejected": c.get("rejected"),
                 }
             )
     return rows

@@ -304,8 +304,8 @@ def _print_diagnosis(label: str, diag: dict) -> None:
             verdict = "passed held-out validation, not the best this round"
         else:
             verdict = "rejected"
-        if entry.get("refit_error"):
-            verdict += f" (refit failed: {entry['refit_error']})"
+            if entry.get("rejected"):
+                verdict += f" ({entry['rejected']})"
         held = ""
         if entry["heldout_rmse_after"] is not None:
             held = (

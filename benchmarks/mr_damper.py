@@ -237,10 +237,15 @@ def print_tables(anchor: dict, directions: list[dict]) -> None:
             )
         for c in d["screened"]:
             if c["significant"] and not c["accepted"]:
+                why = (
+                    c["rejected"]
+                    if c["heldout_rmse_after"] is None
+                    else f"held-out {c['heldout_rmse_before']:.1f} -> "
+                    f"{c['heldout_rmse_after']:.1f}"
+                )
                 print(
-                    f"  round {c['round']}: {c['effect']} significant but not adopted "
-                    f"(held-out {c['heldout_rmse_before'] or float('nan'):.1f} -> "
-                    f"{c['heldout_rmse_after'] or float('nan'):.1f})"
+                    f"  round {c['round']}: {c['effect']} significant but not "
+                    f"adopted ({why})"
                 )
 
 

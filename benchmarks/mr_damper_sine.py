@@ -105,8 +105,8 @@ def main(argv=None) -> int:
     for c in common.screened(summary):
         if c["significant"] and not c["accepted"]:
             print(
-                f"  - round {c['round']}: {c['effect']} is significant but did not "
-                "lower the held-out error enough to be adopted"
+                f"  - round {c['round']}: {c['effect']} is significant but was not "
+                f"adopted: {c['rejected']}"
             )
     for item in diagnosis.unexplained:
         print(f"  - unexplained: {item.description}; resembles {item.resembles}")
