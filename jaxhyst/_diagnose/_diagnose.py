@@ -487,8 +487,9 @@ def _refit_candidates(
     ctx: _Context, state: _State, scores: list[Score]
 ) -> tuple[list[Score], list[_Trial]]:
     """Refit the strongest significant candidates (plus those whose effect asks
-    for it) from their best starting points; validate each on held-out data.
-    Returns the round's scores with what became of each, and the trials."""
+    for it, and those the score cannot screen) from their best starting points;
+    validate each on held-out data. Returns the round's scores with what became of
+    each, and the trials."""
     family, policy = ctx.family, ctx.policy
     significant = [c for c in scores if c.significant]
     chosen = significant[: policy.refits_per_round] + [
@@ -498,6 +499,12 @@ def _refit_candidates(
     ]
     if policy.refit_runners_up:
         chosen += [c for c in scores if not c.significant and c.effect in state.passed]
+    taken = {c.effect for c in chosen}
+    chosen += [
+        c
+        for c in scores
+        if c.effect not in taken and not family.effect(c.effect).score_screens()
+    ]
     if chosen:
         ctx.progress.say(
             "refitting " + ", ".join(c.effect for c in chosen) + " and validating "

@@ -122,6 +122,13 @@ class AbstractEffect(eqx.Module):
         the linearised score understates."""
         return False
 
+    def score_screens(self) -> bool:
+        """Whether the score test screens this effect. False: it is refitted in
+        every round in which it has a direction (the effect it `needs` is in the
+        model), significant or not, and held-out validation alone decides; for
+        effects whose linearised score can vanish where the effect is large."""
+        return True
+
     @abc.abstractmethod
     def evidence(self, where: dict[str, Any], model: AbstractHysteresisModel) -> str:
         """The location figures (`where`, from the family's `locate`) and fitted

@@ -53,6 +53,13 @@ class DriverLag(AbstractEffect):
         # smaller than what a lag of many samples leaves.
         return True
 
+    def score_screens(self):
+        # Its direction at zero lag is d(force)/d(field) times the command's rate:
+        # where the fitted field saturates at a small command (a field_knee of tens
+        # per volt), d(force)/d(field) is nearly zero and so is the score, however
+        # much a lag of milliseconds changes the force at each switch.
+        return False
+
     def evidence(self, where, model):
         return conclude(
             [
