@@ -300,3 +300,30 @@ def test_a_stiffening_outside_the_catalogue_is_reported_as_unexplained():
     assert "could not decide whether" in left.description
     assert left.heldout_gain > 0.2
     assert diagnosis.to_dict()["unexplained"][0]["resembles"] == left.resembles
+
+
+def test_an_effect_the_score_cannot_screen_is_refitted_and_judged_held_out(
+    monkeypatch,
+):
+    # An effect whose score_screens() is False (driver_lag in the damper family) is
+    # refitted even when its score is not significant; held-out validation alone
+    # decides, so on a clean record it is refitted and still not named. Drift
+    # stands in for it here (a quick structural record).
+    from jaxhyst._diagnose._effects.drift import Drift
+
+    assert not jh.DamperFamily().effect("driver_lag").score_screens()
+    assert all(e.score_screens() for e in jh.StructuralFamily().catalogue)
+    monkeypatch.setattr(Drift, "score_screens", lambda self: False)
+    x = _protocol()
+    clean, sigma = _record(x, _truth(x), seed=1)
+    diagnosis = jh.diagnose(
+        clean,
+        key=jax.random.key(0),
+        family=jh.StructuralFamily(),
+        swarm=jh.MPSO(num_particles=48, num_iterations=60),
+    )
+    drift = next(s for s in diagnosis.rounds[0] if s.effect == "drift")
+    assert not drift.significant
+    assert drift.validation is not None and not drift.validation.accepted
+    assert drift.rejection is not None and drift.rejection != "not significant"
+    assert diagnosis.findings == []
