@@ -84,11 +84,13 @@ def moving_columns(cols: np.ndarray) -> np.ndarray:
 MIN_STRIDED = 200
 
 
-def _effective_ratio(series: np.ndarray, ar: np.ndarray, innovation: float) -> float:
-    """N_eff / N of `series` under its AR model: its variance over the AR's
-    long-run variance (clipped to [1e-4, 1])."""
+def _read_ar(series: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """The AR(2) of `series`, its innovation variance, and N_eff / N under it: the
+    series' variance over the AR's long-run variance (clipped to [1e-4, 1])."""
+    ar = whitening_filter(series)
+    innovation = float(np.var(whiten(series, ar)[len(ar) :]))
     long_run = innovation / max(1e-12, (1 - float(np.sum(ar)))) ** 2
-    return min(1.0, max(1e-4, float(np.var(series)) / long_run))
+    return ar, innovation, min(1.0, max(1e-4, float(np.var(series)) / long_run))
 
 
 class NoiseModel(eqx.Module):
@@ -118,16 +120,10 @@ class NoiseModel(eqx.Module):
         (an AR(1) with coefficient a at stride s has coefficient a^s and s times
         fewer samples), so the count is unchanged. Families whose time axis only
         orders the samples switch it on (`AdoptionPolicy.noise_across_strides`)."""
-        ar = whitening_filter(unexplained)
-        innovation = float(np.var(whiten(unexplained, ar)[len(ar) :]))
-        ratio = _effective_ratio(unexplained, ar, innovation)
+        ar, innovation, ratio = _read_ar(unexplained)
         stride = 2
         while across_strides and unexplained.size // stride >= MIN_STRIDED:
-            coarse = unexplained[::stride]
-            coarse_ar = whitening_filter(coarse)
-            coarse_innovation = float(np.var(whiten(coarse, coarse_ar)[2:]))
-            coarse_ratio = _effective_ratio(coarse, coarse_ar, coarse_innovation)
-            ratio = max(ratio, coarse_ratio / stride)
+            ratio = max(ratio, _read_ar(unexplained[::stride])[2] / stride)
             stride *= 2
         return cls(ar, innovation, float(np.std(unexplained)), ratio)
 
