@@ -407,9 +407,18 @@ def test_synthetic_damper_cases():
         assert case.forms[effect] in jh.synthetic.DAMPER_FORMS[effect]
         # Same key: same excitation and noise, only the effects differ.
         np.testing.assert_array_equal(case.recording.u, clean.recording.u)
-        assert case.sizes[effect] == pytest.approx(10.0, rel=0.03)
         change = case.noiseless - clean.noiseless
-        assert np.sqrt(np.mean(change**2)) > 5 * case.sigma
+        raw = float(np.sqrt(np.mean(change**2))) / case.sigma
+        # The size counts what a refit of the base cannot take up: never more
+        # than the raw change ...
+        assert case.sizes[effect] <= raw * (1 + 1e-9)
+        if effect == "rolloff":
+            # ... and for Spencer's dashpot (c1 >= c0/2 here) most of the change
+            # is a smaller c0 and alpha: the form falls short of the size asked.
+            assert case.sizes[effect] < 0.5 * min(raw, 10.0)
+        else:
+            assert case.sizes[effect] == pytest.approx(10.0, rel=0.06)
+            assert raw > 5
     with pytest.raises(ValueError, match="driver_lag needs field_dependence"):
         jh.synthetic.damper_recording(("driver_lag",), key=key)
     with pytest.raises(ValueError, match="unknown effect"):

@@ -348,8 +348,9 @@ class DamperCase(eqx.Module):
       in V, y the force in N, t in s);
     - `effects`: the concealed effects, in catalogue order (empty: a clean record);
     - `sigma`: the noise's marginal standard deviation (N);
-    - `sizes`: per effect, the RMS change it makes in units of `sigma` (alone;
-      driver_lag: on top of the field dependence it lags);
+    - `sizes`: per effect, the RMS change it makes in units of `sigma`, less what
+      a refit of the base takes up to first order (alone; driver_lag: on top of
+      the field dependence it lags);
     - `forms`: per effect, the truth form used (see `DAMPER_FORMS`);
     - `truth_description`: the base, the excitation, each effect's form and
       coefficients, and the noise;
@@ -402,9 +403,13 @@ def damper_recording(
 
     Each effect's form differs from the diagnosis catalogue's (`ExtendedDamper`;
     see `DamperTruth` and `DAMPER_FORMS`), drawn from the key. Its size is set so
-    that the RMS of the change it makes is `size_sigmas` noise sigmas: one number
+    that the RMS of the change it makes, less the part a refit of the base's
+    parameters takes up to first order (the change's least-squares projection on
+    the base's output sensitivities), is `size_sigmas` noise sigmas: one number
     for all, a mapping per effect, or None to draw each from [4, 12]; `sizes`
-    reports what was reached. driver_lag needs field_dependence (a lag of a command
+    reports what was reached. (A stiff internal dashpot changes the force by
+    several sigmas, almost all of it a smaller c0 and alpha: measured on the raw
+    change, such a record was a clean one in disguise.) driver_lag needs field_dependence (a lag of a command
     the force does not follow changes nothing); its size is measured on top of it,
     and its time constant is capped at 30 ms (second order) or a full-scale ramp of
     50 ms (rate limited), beyond published drivers: a small field dependence leaves
@@ -449,9 +454,25 @@ def damper_recording(
     base, what_base = damper_base_truth(_rng(k_base, owner), floor)
     quiet = DamperTruth(base)
 
-    def run(truth: DamperTruth) -> np.ndarray:
-        solver = RK4(substeps=_truth_substeps(truth, path))
+    def run(truth: DamperTruth, substeps: int | None = None) -> np.ndarray:
+        solver = RK4(substeps=substeps or _truth_substeps(truth, path))
         return np.asarray(_run_jit(truth.astype(path.values.dtype), path, solver))
+
+    def absorbable(reference: DamperTruth, y_ref: np.ndarray) -> np.ndarray:
+        """The reference's output sensitivities to its base's parameters (forward
+        differences, unit-RMS columns): the changes a refit of the base takes up
+        to first order."""
+        substeps = _truth_substeps(reference, path)
+        columns = []
+        for name in _ABSORBING:
+            value = float(getattr(reference.base, name))
+            step = 1e-6 * max(abs(value), 1.0)
+            moved = eqx.tree_at(
+                lambda m, name=name: getattr(m.base, name), reference, value + step
+            )
+            column = run(moved, substeps) - y_ref
+            columns.append(column / max(_rms(column), 1e-300))
+        return np.stack(columns, axis=1)
 
     y_base = run(quiet)
     noise_rng = _rng(k_noise, owner)
@@ -468,12 +489,15 @@ def damper_recording(
                 lambda m: m.field, quiet, components["field"], is_leaf=_none
             )
         y_reference = run(reference) if reference is not quiet else y_base
+        columns = absorbable(reference, y_reference)
 
-        def measure(field: str, component, reference=reference, y_ref=y_reference):
+        def measure(
+            field: str, component, reference=reference, y_ref=y_reference, cols=columns
+        ):
             model = eqx.tree_at(
                 lambda m: getattr(m, field), reference, component, is_leaf=_none
             )
-            return _rms(run(model) - y_ref)
+            return _rms(_off_span(run(model) - y_ref, cols))
 
         sizer = _SIZERS[effect]
         field, component, reached, form, what = sizer(
@@ -521,6 +545,16 @@ def damper_recording(
 
 def _none(x) -> bool:
     return x is None
+
+
+# The base parameters a refit moves (A fixes z's scale; x0 only shifts like f0).
+_ABSORBING = ("c0", "k0", "alpha", "f0", "beta", "gamma", "n")
+
+
+def _off_span(change: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """`change` less its least-squares projection on `columns`."""
+    coef, *_ = np.linalg.lstsq(columns, change, rcond=None)
+    return change - columns @ coef
 
 
 # ----------------------------------------------------------------------- sizing
