@@ -10,7 +10,7 @@ Each stage is a function of the typed `_Context` (what does not change) and the
 import dataclasses
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import Any
 
 import equinox as eqx
@@ -483,6 +483,41 @@ def _validate(
     )
 
 
+def refit_choice(
+    family: AbstractFamily,
+    policy: AdoptionPolicy,
+    scores: list[Score],
+    passed: Collection[str],
+    structure_left: Callable[[], bool],
+) -> tuple[list[Score], bool]:
+    """The round's candidates to refit: the `refits_per_round` strongest
+    significant ones, significant ones whose effect always asks for a refit, runners-up
+    that passed before (`refit_runners_up`), and those the score cannot screen;
+    when none is significant and `structure_left()` (asked only then), the
+    strongest ones anyway (`refit_on_structure`; the second value says so)."""
+    significant = [c for c in scores if c.significant]
+    chosen = significant[: policy.refits_per_round] + [
+        c
+        for c in significant[policy.refits_per_round :]
+        if family.effect(c.effect).always_refit()
+    ]
+    if policy.refit_runners_up:
+        chosen += [c for c in scores if not c.significant and c.effect in passed]
+    taken = {c.effect for c in chosen}
+    chosen += [
+        c
+        for c in scores
+        if c.effect not in taken and not family.effect(c.effect).score_screens()
+    ]
+    anyway = policy.refit_on_structure and not significant and structure_left()
+    if anyway:
+        taken = {c.effect for c in chosen}
+        chosen += [c for c in scores if c.effect not in taken][
+            : policy.refits_per_round
+        ]
+    return chosen, anyway
+
+
 def _refit_candidates(
     ctx: _Context, state: _State, scores: list[Score]
 ) -> tuple[list[Score], list[_Trial]]:
@@ -491,20 +526,18 @@ def _refit_candidates(
     validate each on held-out data. Returns the round's scores with what became of
     each, and the trials."""
     family, policy = ctx.family, ctx.policy
-    significant = [c for c in scores if c.significant]
-    chosen = significant[: policy.refits_per_round] + [
-        c
-        for c in significant[policy.refits_per_round :]
-        if family.effect(c.effect).always_refit()
-    ]
-    if policy.refit_runners_up:
-        chosen += [c for c in scores if not c.significant and c.effect in state.passed]
-    taken = {c.effect for c in chosen}
-    chosen += [
-        c
-        for c in scores
-        if c.effect not in taken and not family.effect(c.effect).score_screens()
-    ]
+    chosen, anyway = refit_choice(
+        family,
+        policy,
+        scores,
+        state.passed,
+        lambda: _structure_left(ctx, state),
+    )
+    if anyway:
+        ctx.progress.say(
+            "the score test flags nothing, but structure is left on the held-out "
+            "samples: refitting the strongest candidates anyway"
+        )
     if chosen:
         ctx.progress.say(
             "refitting " + ", ".join(c.effect for c in chosen) + " and validating "
@@ -543,6 +576,16 @@ def _refit_candidates(
         updated[c.effect] = trial.score
         trials.append(trial)
     return [updated[c.effect] for c in scores], trials
+
+
+def _structure_left(ctx: _Context, state: _State) -> bool:
+    """Whether the model-free probes find structure in the current residual that
+    they predict on the held-out samples (`unexplained_structure`)."""
+    residual = ctx.y - state.predicted
+    found = unexplained_structure(
+        ctx.recording, ctx.family, residual, ctx.fit_mask, ctx.policy, seed=0
+    )
+    return bool(found)
 
 
 def _trial(

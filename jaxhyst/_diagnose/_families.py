@@ -43,6 +43,11 @@ from ._locate_damper import describe_damper, locate_damper
 from ._policy import AdoptionPolicy
 from ._probes import Probe, cyclic_probes, piezo_probes
 from ._probes_damper import damper_probes
+from ._residual_probes import (
+    ResidualProbe,
+    command_history_probe,
+    velocity_command_probe,
+)
 
 
 class AbstractFamily(eqx.Module):
@@ -98,6 +103,12 @@ class AbstractFamily(eqx.Module):
         (in words a user can act on). `diagnose` does not score them and says so
         (`Diagnosis.cannot_show`). None by default."""
         return {}
+
+    def residual_probes(self, recording: Recording) -> tuple[ResidualProbe, ...]:
+        """Bins of what this family's residual may be a function of, beside the
+        input's level and direction and a slow function of time (which every
+        family's unexplained-structure check reads). None by default."""
+        return ()
 
     def base_swarm(self) -> MPSO:
         """The base fit's swarm `diagnose` uses unless given one."""
@@ -445,6 +456,10 @@ class DamperFamily(AbstractFamily):
     def base_swarm_window(self, recording):
         return self.SWARM_WINDOW if recording.num_samples > self.SWARM_WINDOW else None
 
+    def residual_probes(self, recording):
+        # A random displacement does not repeat loops: the force's own variables.
+        return (velocity_command_probe(recording), command_history_probe(recording))
+
     def base_swarm(self):
         # Iterations over particles: on two synthetic white-noise tests with a
         # strong field dependence, 100 x 200 stopped in a viscous basin (a tiny
@@ -555,8 +570,13 @@ class DamperFamily(AbstractFamily):
         # fit's held-out RMS, else the AR noise model (mostly misfit) would demand
         # far too large a gain. A candidate's gain is credited only beyond a refit
         # of the model it extends. (Candidate refits run no swarm: the extended
-        # model's lagged field is propagated once per sample.)
-        return AdoptionPolicy(null_refit=True, noise_bound=True)
+        # model's lagged field is propagated once per sample.) A white-noise test
+        # misfits by many noise sigmas until the field and its lag are in: the
+        # score test then loses power, and structure left on the held-out samples
+        # has the strongest candidates refitted anyway.
+        return AdoptionPolicy(
+            null_refit=True, noise_bound=True, refit_on_structure=True
+        )
 
     def refit_stride(self, model, recording):
         # No decimation: a stride s multiplies the RK4 step by s at the same

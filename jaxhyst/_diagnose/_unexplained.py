@@ -8,6 +8,7 @@ import numpy as np
 from .._recording import Recording
 from ._families import AbstractFamily
 from ._policy import AdoptionPolicy
+from ._residual_probes import loop_labels
 from ._results import Unexplained
 from ._score import NoiseModel
 
@@ -19,15 +20,6 @@ def _bin_predictor(labels: np.ndarray, residual: np.ndarray, fit: np.ndarray):
     total = np.bincount(labels[fit], weights=residual[fit], minlength=labels.max() + 1)
     means = np.where(count > 0, total / np.maximum(count, 1), 0.0)
     return means[labels]
-
-
-def _loop_labels(x: np.ndarray, bins: int = 16) -> np.ndarray:
-    """Bins over the input's level and its direction of motion: a residual that is
-    a function of them is loop-shaped (it repeats cycle after cycle)."""
-    edges = np.quantile(x, np.linspace(0, 1, bins + 1)[1:-1])
-    level = np.searchsorted(edges, x)
-    rising = np.diff(x, prepend=x[0]) >= 0
-    return level * 2 + rising.astype(int)
 
 
 def _time_labels(n: int, bins: int = 12) -> np.ndarray:
@@ -114,8 +106,9 @@ def unexplained_structure(
     undecided: tuple[str, ...] = (),
 ) -> list[Unexplained]:
     """Structured mismatch left on held-out data: for each probe (a function of the
-    input's level and direction; a slow function of time), the bin means of the
-    fitted samples' residual predict the held-out residual. It is reported when
+    input's level and direction; a slow function of time; the family's own,
+    `AbstractFamily.residual_probes`), the bin means of the fitted samples'
+    residual predict the held-out residual. It is reported when
     that prediction removes more than the policy's minimum gain of the held-out
     MSE and more than the same probe removes from all but one in two hundred of
     `draws` series of the residual's own AR(2) noise (`NoiseModel`, read from
@@ -124,18 +117,26 @@ def unexplained_structure(
     already tried. A slow noise and a slow drift look alike to the time probe, so
     a residual whose colour is all slow wander is not reported. `undecided`: the
     catalogue effects the record could not decide on (named in each report: part
-    of the structure may be theirs)."""
+    of the structure may be theirs). Of the probes that read the inputs, only the
+    one that predicts most is reported (they see the same structure); the slow
+    function of time is reported beside it."""
     hold = ~fit_mask
     x = np.asarray(recording.u)
     if float(np.mean(residual[hold] ** 2)) <= 0:
         return []
+    extra = family.residual_probes(recording)
     probes = (
-        ("loop", _loop_labels(x)),
+        ("loop", loop_labels(x)),
         ("trend", _time_labels(residual.size)),
+        *((f"family{i}", p.labels) for i, p in enumerate(extra)),
     )
     gains = {kind: _probe_gain(labels, residual, fit_mask) for kind, labels in probes}
     # Only probes above the floor are compared with the noise draws.
     probes = tuple(p for p in probes if gains[p[0]] > policy.min_heldout_gain)
+    # Of those that read the inputs, the one that predicts most.
+    reading = [kind for kind, _ in probes if kind != "trend"]
+    best = max(reading, key=lambda kind: gains[kind], default=None)
+    probes = tuple(p for p in probes if p[0] in ("trend", best))
     if not probes:
         return []
     noise = NoiseModel.estimate(residual)
@@ -159,6 +160,14 @@ def unexplained_structure(
                 "a structured mismatch no effect of the catalogue removed: a "
                 "function of the input's level and direction, learnt on the fitted "
                 f"samples, predicts {gain:.0%} of the held-out residual's MSE"
+            )
+        elif kind.startswith("family"):
+            probe = extra[int(kind.removeprefix("family"))]
+            resembles = probe.resembles
+            description = (
+                "a structured mismatch no effect of the catalogue removed: a "
+                f"function of {probe.what}, learnt on the fitted samples, predicts "
+                f"{gain:.0%} of the held-out residual's MSE"
             )
         else:
             resembles = (
