@@ -12,7 +12,9 @@ seeds) where nothing may be named. The truth is written in forms that differ fro
 the catalogue's (`ExtendedDamper`: saturating-exponential or power-law field,
 second-order or rate-limited driver, Spencer's dashpot with an internal spring,
 a warming preload with a wandering zero, valving or side-dependent yield), and
-each effect changes the force by only 4-12 noise sigmas.
+each effect changes the force by only 4-12 noise sigmas beyond what a refit of the
+base takes up to first order (where its form reaches that far: Spencer's dashpot,
+with c1 >= c0/2, often does not, and the size it reached is reported).
 
 Reports
 - exact-set accuracy on the effect cases (the named set equals the concealed set),

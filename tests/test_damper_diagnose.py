@@ -321,10 +321,10 @@ def test_a_lagged_field_is_named_with_its_lag():
 
 def test_the_base_swarm_is_restarted_out_of_a_wrong_basin():
     # The damper suite's clean record 8 (benchmarks/damper_suite.py --quick): the
-    # diagnosis key's windowed swarm settles in a wrong basin (its base fit stayed
-    # at 9.5 noise sigmas with the 100 x 200 swarm of session 12, its truth base
-    # fits at 1.00); the second key's start is
-    # kept. Measured 1.004 sigma, 24 s.
+    # diagnosis key's windowed swarm settled in a wrong basin with the earlier
+    # 100 x 200 base swarm (its base fit stayed at 9.5 noise sigmas, its truth
+    # base fits at 1.00), and the second key's start was kept. Measured 1.004
+    # sigma, 24 s.
     generate, diagnose_key = jax.random.split(jax.random.fold_in(jax.random.key(0), 7))
     case = jh.synthetic.damper_recording((), key=generate, duration=5.0)
     diagnosis = jh.diagnose(case.recording, key=diagnose_key, family=jh.DamperFamily())
