@@ -247,11 +247,13 @@ def _heldout_comparison(
 def _base_fit(
     ctx: _Context,
     base: AbstractHysteresisModel | None,
-    swarm: MPSO,
+    swarms: tuple[MPSO, ...],
     progress: bool,
 ) -> tuple[_State, AbstractHysteresisModel]:
     """The base model fitted on the fit mask (unless given), and the extended model
-    around it with every effect off."""
+    around it with every effect off. `swarms[0]` searches; a windowed start also
+    tries the others."""
+    swarm = swarms[0]
     if base is None:
         records = ctx.records
         several = records.several
@@ -280,7 +282,7 @@ def _base_fit(
         window = ctx.family.base_swarm_window(ctx.recording)
         swarm_space = ctx.family.base_swarm_space(ctx.recording)
         if window is not None and not several:
-            start = _windowed_start(ctx, window, swarm, progress)
+            start = _windowed_start(ctx, window, swarms, progress)
         elif swarm_space is not None:
             searched = fit_base(swarm_space, swarm=swarm, polish=None)
             start = ctx.family.base_gauge(searched.model)
@@ -308,21 +310,27 @@ def _base_fit(
 
 
 def _windowed_start(
-    ctx: _Context, window: int, swarm: MPSO, progress: bool
+    ctx: _Context, window: int, swarms: tuple[MPSO, ...], progress: bool
 ) -> AbstractHysteresisModel:
-    """The base swarm and polish on the first `window` samples at the full rate,
-    from two keys (a swarm of a sharp-looped model can settle in a wrong basin: on
-    a clean synthetic damper record one key's fit stayed at 9.4 noise sigmas, the
-    other's reached 1.00); the start with the lower fitted-sample error there. The
-    base fit then polishes it on every fitted sample."""
+    """The base swarm and polish on the first `window` samples at the full rate:
+    `swarms[0]` from two keys, each further swarm from one (a swarm of a
+    sharp-looped model can settle in a wrong basin: on a clean synthetic damper
+    record one key's fit stayed at 9.4 noise sigmas, the other's reached 1.00);
+    the start with the lowest fitted-sample error there. The base fit then polishes
+    it on every fitted sample."""
     first = ctx.recording.segment(None, float(ctx.recording.t[window - 1]))
     weights = ctx.weights[: first.num_samples]
+    attempts = [(swarms[0], ctx.key), (swarms[0], jax.random.fold_in(ctx.key, 1))]
+    attempts += [
+        (other, jax.random.fold_in(ctx.key, 1 + number))
+        for number, other in enumerate(swarms[1:], 1)
+    ]
     best, best_mse = None, math.inf
-    for attempt in range(2):
+    for swarm, key in attempts:
         fit = identify(
             ctx.family.base_template(),
             first,
-            key=ctx.key if attempt == 0 else jax.random.fold_in(ctx.key, attempt),
+            key=key,
             space=ctx.family.base_space(ctx.recording),
             swarm=swarm,
             solver=ctx.solver,
@@ -1405,7 +1413,8 @@ def diagnose(
 
     `policy` holds the adoption rules (`AdoptionPolicy`; None: the family's
     `default_policy()`). `swarm`: the base fit's swarm (None: the family's
-    `base_swarm()`; unused when `base` is given). `device`: where the
+    `base_swarm()`, and its `base_swarm_alternatives()` where the family starts
+    from a window; unused when `base` is given). `device`: where the
     diagnosis runs; None: the host CPU when the default device is an accelerator
     (its refits and Jacobians integrate one trajectory at a time, which a CPU
     runs faster), else the default device.
@@ -1433,8 +1442,11 @@ def diagnose(
         )
     if policy is None:
         policy = family.default_policy()
-    if swarm is None:
-        swarm = family.base_swarm()
+    swarms = (
+        (family.base_swarm(), *family.base_swarm_alternatives())
+        if swarm is None
+        else (swarm,)
+    )
     if not isinstance(policy, AdoptionPolicy):
         raise TypeError(
             f"diagnose: policy must be an AdoptionPolicy, got {type(policy).__name__}."
@@ -1455,7 +1467,7 @@ def diagnose(
             base=moved_to(base, device),
             holdout_fraction=holdout_fraction,
             policy=policy,
-            swarm=swarm,
+            swarms=swarms,
             progress=progress,
         )
 
@@ -1468,7 +1480,7 @@ def _diagnose(
     base: AbstractHysteresisModel | None,
     holdout_fraction: float,
     policy: AdoptionPolicy,
-    swarm: MPSO,
+    swarms: tuple[MPSO, ...],
     progress: bool,
 ) -> Diagnosis:
     start_time = time.perf_counter()
@@ -1504,7 +1516,7 @@ def _diagnose(
     for name, reason in ctx.hidden.items():
         ctx.progress.say(f"not scoring {name}: {reason}")
     ctx.progress.say(f"fitting the {family.base_name} base model")
-    state, base = _base_fit(ctx, base, swarm, progress)
+    state, base = _base_fit(ctx, base, swarms, progress)
     base_predicted = state.predicted
     baseline = error_metrics(ctx.y, base_predicted)
     location = family.locate(recording, ctx.y - base_predicted)
