@@ -584,3 +584,31 @@ def test_structure_left_has_the_strongest_candidates_refitted_anyway():
     assert (
         not anyway and not asked and [c.effect for c in chosen] == ["field_dependence"]
     )
+
+
+def test_the_windowed_base_start_also_runs_the_family_s_alternative_swarms(
+    monkeypatch,
+):
+    from jaxhyst._diagnose import _diagnose as engine
+
+    class Stop(Exception):
+        pass
+
+    seen = []
+
+    def windowed_start(ctx, window, swarms, progress):
+        seen.append(swarms)
+        raise Stop
+
+    monkeypatch.setattr(engine, "_windowed_start", windowed_start)
+    recording = jh.synthetic.damper_recording((), key=jax.random.key(1), duration=1.0)
+    family = jh.DamperFamily()
+    for swarm in (None, QUICK_SWARM):
+        with pytest.raises(Stop):
+            jh.diagnose(
+                recording.recording, key=jax.random.key(0), family=family, swarm=swarm
+            )
+    assert seen[0] == (family.base_swarm(), *family.base_swarm_alternatives())
+    assert jh.MPSO(num_particles=64, num_iterations=500) in seen[0][1:]
+    # A swarm the user gives is the only one.
+    assert seen[1] == (QUICK_SWARM,)
