@@ -1,6 +1,7 @@
 """Model-free predictors of a residual, for the unexplained-structure check: samples
-in the same bin of what the recording shows (the input's level and direction; the
-velocity and the command) share one value, learnt on the fitted samples."""
+in the same bin of what the recording shows (the input's level and direction; a
+damper's velocity and command, and how far its command stands from its recent past)
+share one value, learnt on the fitted samples."""
 
 import equinox as eqx
 import numpy as np
