@@ -124,11 +124,11 @@ def unexplained_structure(
     x = np.asarray(recording.u)
     if float(np.mean(residual[hold] ** 2)) <= 0:
         return []
-    extra = family.residual_probes(recording)
+    own = {f"family{i}": p for i, p in enumerate(family.residual_probes(recording))}
     probes = (
         ("loop", loop_labels(x)),
         ("trend", _time_labels(residual.size)),
-        *((f"family{i}", p.labels) for i, p in enumerate(extra)),
+        *((kind, p.labels) for kind, p in own.items()),
     )
     gains = {kind: _probe_gain(labels, residual, fit_mask) for kind, labels in probes}
     # Only probes above the floor are compared with the noise draws.
@@ -161,8 +161,8 @@ def unexplained_structure(
                 "function of the input's level and direction, learnt on the fitted "
                 f"samples, predicts {gain:.0%} of the held-out residual's MSE"
             )
-        elif kind.startswith("family"):
-            probe = extra[int(kind.removeprefix("family"))]
+        elif kind in own:
+            probe = own[kind]
             resembles = probe.resembles
             description = (
                 "a structured mismatch no effect of the catalogue removed: a "

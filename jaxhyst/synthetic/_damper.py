@@ -43,6 +43,7 @@ import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
 from .._diagnose._families import DAMPER_EFFECT_NAMES, DamperFamily
+from .._diagnose._score import project_off
 from .._inputs import InputPath
 from .._models.base import (
     AbstractHysteresisModel,
@@ -409,8 +410,9 @@ def damper_recording(
     for all, a mapping per effect, or None to draw each from [4, 12]; `sizes`
     reports what was reached. (A stiff internal dashpot changes the force by
     several sigmas, almost all of it a smaller c0 and alpha: measured on the raw
-    change, such a record was a clean one in disguise.) driver_lag needs field_dependence (a lag of a command
-    the force does not follow changes nothing); its size is measured on top of it,
+    change, such a record was a clean one in disguise.) driver_lag needs
+    field_dependence (a lag of a command the force does not follow changes
+    nothing); its size is measured on top of it,
     and its time constant is capped at 30 ms (second order) or a full-scale ramp of
     50 ms (rate limited), beyond published drivers: a small field dependence leaves
     its lag below the size asked for.
@@ -497,7 +499,8 @@ def damper_recording(
             model = eqx.tree_at(
                 lambda m: getattr(m, field), reference, component, is_leaf=_none
             )
-            return _rms(_off_span(run(model) - y_ref, cols))
+            change = (run(model) - y_ref)[:, None]
+            return _rms(project_off(cols, change, np.ones(change.shape[0])))
 
         sizer = _SIZERS[effect]
         field, component, reached, form, what = sizer(
@@ -549,12 +552,6 @@ def _none(x) -> bool:
 
 # The base parameters a refit moves (A fixes z's scale; x0 only shifts like f0).
 _ABSORBING = ("c0", "k0", "alpha", "f0", "beta", "gamma", "n")
-
-
-def _off_span(change: np.ndarray, columns: np.ndarray) -> np.ndarray:
-    """`change` less its least-squares projection on `columns`."""
-    coef, *_ = np.linalg.lstsq(columns, change, rcond=None)
-    return change - columns @ coef
 
 
 # ----------------------------------------------------------------------- sizing
