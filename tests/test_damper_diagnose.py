@@ -53,6 +53,7 @@ SWITCHED_ON = dict(
     field_damping=0.4,
     field_knee=0.5,
     command_lag=0.005,
+    field_lag=0.002,
     rolloff=0.1,
     trend=20.0,
     curvature=-10.0,
@@ -61,6 +62,9 @@ SWITCHED_ON = dict(
     damping_skew=-0.1,
     legendre4=4.0,
     legendre5=-3.0,
+    legendre6=2.0,
+    legendre7=-1.5,
+    legendre8=1.0,
 )
 
 
@@ -107,15 +111,15 @@ def test_every_effect_off_is_the_fixed_field_damper():
         )
 
 
-def test_the_offset_s_terms_are_legendre_polynomials_of_degree_1_to_5():
+def test_the_offset_s_terms_are_legendre_polynomials_of_degree_1_to_8():
     # A zero that goes back and forth: each term adds its Legendre polynomial of
-    # the time scaled to [-1, 1] (curvature's is s^2 - 1/3 = 2/3 P2), and the five
+    # the time scaled to [-1, 1] (curvature's is s^2 - 1/3 = 2/3 P2), and the eight
     # are orthogonal over the record.
     path = _path()
     extended = jh.ExtendedDamper.around(_base(), path, 500.0)
     off = np.asarray(jh.simulate(extended, path, SOLVER))
     s = np.linspace(-1.0, 1.0, off.size)
-    names = ("trend", "curvature", "wander", "legendre4", "legendre5")
+    names = ("trend", "curvature", "wander", *(f"legendre{k}" for k in range(4, 9)))
     columns = []
     for degree, name in enumerate(names, start=1):
         on = np.asarray(jh.simulate(extended.replace(**{name: 2.0}), path, SOLVER))
@@ -124,40 +128,68 @@ def test_the_offset_s_terms_are_legendre_polynomials_of_degree_1_to_5():
         np.testing.assert_allclose(on - off, 2.0 * legendre, rtol=0, atol=1e-9)
         columns.append(legendre)
     gram = np.corrcoef(np.stack(columns))
-    assert np.max(np.abs(gram - np.eye(5))) < 0.05
+    assert np.max(np.abs(gram - np.eye(len(names)))) < 0.05
     assert jh.DamperFamily().effect("offset").parameters == names
 
 
-def test_the_lagged_field_is_exact_per_sample_and_continuous_at_zero():
-    path = _path(duration=0.2)
-    extended = jh.ExtendedDamper.around(_base(), path, 500.0).replace(field_alpha=3.0)
-    lag = 0.004
-    _, states = jh.simulate(
-        extended.replace(command_lag=lag), path, SOLVER, return_state=True
-    )
-    # w' = (v - w)/lag for the piecewise-linear command, integrated finely.
-    v = _command(path)
-    fine = 200
-    w, reference = v[0], [v[0]]
-    h = float(path.dt) / fine
+def _cascade_reference(v, dt, lags, fine=200):
+    """The stages u' = (v - u)/lags[0], w' = (u - w)/lags[1] (0: passed through)
+    for the piecewise-linear command, integrated on a fine grid (each stage's
+    input at the fine step's midpoint): (u, w) at each sample."""
+    u = w = v[0]
+    currents, fields = [u], [w]
+    h = dt / fine
     for k in range(v.size - 1):
         for j in range(fine):
             command = v[k] + (v[k + 1] - v[k]) * (j + 0.5) / fine
-            w += h * (command - w) / lag
-        reference.append(w)
-    np.testing.assert_allclose(states[:, 1], reference, atol=2e-4)
+            if lags[0] == 0:
+                u_new = v[k] + (v[k + 1] - v[k]) * (j + 1) / fine
+            else:
+                u_new = u + h * (command - u) / lags[0]
+            middle = (u + u_new) / 2
+            w = u_new if lags[1] == 0 else w + h * (middle - w) / lags[1]
+            u = u_new
+        currents.append(u)
+        fields.append(w)
+    return np.asarray(currents), np.asarray(fields)
 
-    def force(value):
-        return jh.simulate(extended.replace(command_lag=value), path, SOLVER)
 
-    # At zero lag the field is the command; a tiny lag moves the force a little,
-    # along the derivative the score test sees.
-    np.testing.assert_array_equal(np.asarray(states[0, 1]), v[0])
-    _, tangent = jax.jvp(force, (jnp.asarray(0.0),), (jnp.asarray(1.0),))
-    difference = (force(jnp.asarray(1e-7)) - force(jnp.asarray(0.0))) / 1e-7
-    scale = float(jnp.max(jnp.abs(tangent)))
-    assert scale > 0
-    assert float(jnp.max(jnp.abs(difference - tangent))) < 1e-3 * scale
+@pytest.mark.parametrize("lags", [(0.004, 0.0), (0.0, 0.004), (0.003, 0.002)])
+def test_the_lagged_field_is_exact_per_sample_and_continuous_at_zero(lags):
+    path = _path(duration=0.2)
+    extended = jh.ExtendedDamper.around(_base(), path, 500.0).replace(field_alpha=3.0)
+    lagged = extended.replace(command_lag=lags[0], field_lag=lags[1])
+    _, states = jh.simulate(lagged, path, SOLVER, return_state=True)
+    # One stage is exact per sample (1e-4 V off the fine integration, its own
+    # error); the second is exact for an input moving at the first's mean rate
+    # over each interval: measured 1.8e-3 V off with 3 and 2 ms stages after
+    # command steps of up to 2.5 V within one sample (the current bends inside
+    # the interval), 0.07 % of the full scale.
+    v = _command(path)
+    currents, fields = _cascade_reference(v, float(path.dt), lags)
+    np.testing.assert_allclose(states[:, 1], currents, atol=2e-4)
+    two_stages = min(lags) > 0
+    np.testing.assert_allclose(states[:, 2], fields, atol=3e-3 if two_stages else 2e-4)
+
+    def force(name, value):
+        return jh.simulate(lagged.replace(**{name: value}), path, SOLVER)
+
+    # At zero lags the field is the command; a tiny lag of either stage moves the
+    # force a little, along the derivative the score test sees (the same for both
+    # stages at zero).
+    np.testing.assert_array_equal(np.asarray(states[0, 2]), v[0])
+    for name, lag in zip(("command_lag", "field_lag"), lags):
+        if lag != 0.0:
+            continue
+        _, tangent = jax.jvp(
+            lambda value: force(name, value), (jnp.asarray(0.0),), (jnp.asarray(1.0),)
+        )
+        difference = (
+            force(name, jnp.asarray(1e-7)) - force(name, jnp.asarray(0.0))
+        ) / 1e-7
+        scale = float(jnp.max(jnp.abs(tangent)))
+        assert scale > 0
+        assert float(jnp.max(jnp.abs(difference - tangent))) < 1e-3 * scale
 
 
 def test_the_extended_damper_is_spencers_where_their_forms_meet():
@@ -312,10 +344,11 @@ def test_a_lagged_field_is_named_with_its_lag():
     assert field.to_dict()["validated_with"] == ["driver_lag"]
     assert "refitted together" in diagnosis.findings[1].evidence
     assert diagnosis.steps[1].label.startswith("field_dependence and driver_lag added")
-    # Measured 1.49 sigma (the base 4.3; the lag, capped at 30 ms, reached 5.4
-    # sigmas); the truth's second-order driver is not the catalogue's first-order
-    # lag.
-    assert diagnosis.final_rmse < 1.8 * case.sigma
+    # The truth's second-order driver (1/omega = 30 ms, zeta 0.87) is not the
+    # catalogue's form; its two real stages follow it (measured 1.04 sigma, the
+    # base 4.3; both stages at 28 ms), where one stage left 1.49 sigma.
+    assert diagnosis.final_rmse < 1.2 * case.sigma
+    assert min(diagnosis.final_parameters[p] for p in ("command_lag", "field_lag")) > 0
     assert diagnosis.baseline["rmse"] > 3 * case.sigma
 
 

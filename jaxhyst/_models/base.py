@@ -280,6 +280,24 @@ class SearchBox(eqx.Module):
     log_scale: tuple[str, ...] = eqx.field(converter=tuple, static=True, default=())
 
 
+def legendre_drift(s, trend, curvature, *higher):
+    """A slow drift in Legendre terms of the time s scaled to [-1, 1]:
+    trend*s + curvature*(s^2 - 1/3) + sum_k higher[k]*P_{k+3}(s) (`higher` the
+    coefficients of degree 3, 4, ...; curvature's s^2 - 1/3 is 2/3 P2). Zero when
+    every coefficient is. The extended models' drift effects add it to their
+    output."""
+    total = trend * s + curvature * (s**2 - 1.0 / 3.0)
+    previous, current = s, (3 * s**2 - 1) / 2  # P1, P2
+    for degree, coefficient in enumerate(higher, start=2):
+        # Bonnet: (k + 1) P_{k+1} = (2k + 1) s P_k - k P_{k-1}.
+        previous, current = (
+            current,
+            ((2 * degree + 1) * s * current - degree * previous) / (degree + 1),
+        )
+        total = total + coefficient * current
+    return total
+
+
 def read_input(
     path: InputPath,
     t: Float[ArrayLike, ""],

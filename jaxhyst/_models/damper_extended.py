@@ -16,9 +16,14 @@ normalisers set by `around` from the record, not fitted):
   (field_knee = 0: affine in the command; > 0: the field saturates, as the coil's
   iron and the fluid's yield stress do; < 0: it grows faster than affine, as the
   yield stress does at low fields);
-- driver_lag: the field follows the command v through first-order dynamics,
-  w' = (v - w)/command_lag (0: w = v), integrated exactly over each sample interval
-  for a piecewise-linear command (`sample_update`);
+- driver_lag: the field follows the command v through two first-order stages in
+  series, the current u' = (v - u)/command_lag (the driver and the coil's L/R) and
+  the field w' = (u - w)/field_lag (eddy currents, the fluid's response); 0 passes
+  a stage through (both 0: w = v). The first stage is integrated exactly over each
+  sample interval for a piecewise-linear command, the second exactly for an input
+  that moves at the first stage's mean rate over the interval (`sample_update`);
+  two stages follow a driver that settles like a second-order system (an S-shaped
+  step response) where one stage cannot;
 - rolloff: a dashpot c1 = damping_scale/rolloff in series with the Bouc-Wen element
   and c0 (Spencer et al. 1997's internal dashpot, without their internal spring):
   ydot = (alpha*z + c0*xdot)/(c0 + c1), z is driven by xdot - ydot, and the block
@@ -26,16 +31,16 @@ normalisers set by `around` from the record, not fitted):
   the force then rolls off at low velocity near reversals;
 - offset: the force's zero moves along the record (the accumulator's preload as the
   gas warms, a load-cell zero drifting): F += trend*s + curvature*(s^2 - 1/3) +
-  wander*(5 s^3 - 3 s)/2 + legendre4*P4(s) + legendre5*P5(s), s the time in
-  [-1, 1] (the Legendre polynomials of degree 1 to 5; the constant is the base's
-  f0);
+  wander*(5 s^3 - 3 s)/2 + legendre4*P4(s) + ... + legendre8*P8(s), s the time in
+  [-1, 1] (the Legendre polynomials of degree 1 to 8: a zero that wanders back and
+  forth up to four times over the record; the constant is the base's f0);
 - asymmetry: compression and extension differ: gamma -> gamma +
   skew*(beta + gamma)*sign(z) (the hysteretic force saturates at different levels
   on the two sides) and c0 -> c0*(1 + damping_skew*sign(xdot)) (the valving damps
   one direction more).
 
-State: (z, w), w held over each sample interval and updated exactly at its end (the
-RK4 stages inside it read w from the same exact solution).
+State: (z, u, w), the current u and the field w held over each sample interval and
+updated at its end (the RK4 stages inside it read them from the same solution).
 """
 
 from typing import ClassVar
@@ -52,6 +57,7 @@ from .base import (
     BoucWenShape,
     as_parameter,
     hysteretic_rate,
+    legendre_drift,
     read_input,
 )
 from .damper import (
@@ -100,6 +106,7 @@ class ExtendedDamper(AbstractHysteresisModel):
     field_damping: Float[Array, ""] = _field(0.0)
     field_knee: Float[Array, ""] = _field(0.0)
     command_lag: Float[Array, ""] = _field(0.0)
+    field_lag: Float[Array, ""] = _field(0.0)
     rolloff: Float[Array, ""] = _field(0.0)
     trend: Float[Array, ""] = _field(0.0)
     curvature: Float[Array, ""] = _field(0.0)
@@ -108,6 +115,9 @@ class ExtendedDamper(AbstractHysteresisModel):
     damping_skew: Float[Array, ""] = _field(0.0)
     legendre4: Float[Array, ""] = _field(0.0)
     legendre5: Float[Array, ""] = _field(0.0)
+    legendre6: Float[Array, ""] = _field(0.0)
+    legendre7: Float[Array, ""] = _field(0.0)
+    legendre8: Float[Array, ""] = _field(0.0)
     command_scale: Float[Array, ""] = _normaliser(1.0)
     damping_scale: Float[Array, ""] = _normaliser(1.0)
     time_center: Float[Array, ""] = _normaliser(0.0)
@@ -120,6 +130,7 @@ class ExtendedDamper(AbstractHysteresisModel):
         "field_damping",
         "field_knee",
         "command_lag",
+        "field_lag",
         "rolloff",
         "trend",
         "curvature",
@@ -128,8 +139,11 @@ class ExtendedDamper(AbstractHysteresisModel):
         "damping_skew",
         "legendre4",
         "legendre5",
+        "legendre6",
+        "legendre7",
+        "legendre8",
     )
-    state_size: ClassVar[int] = 2
+    state_size: ClassVar[int] = 3
     input_names: ClassVar[tuple[str, ...]] = ("displacement", "command")
 
     @classmethod
@@ -204,16 +218,30 @@ class ExtendedDamper(AbstractHysteresisModel):
         elapsed = jnp.asarray(frac, path.dt.dtype) * path.dt
         return LaggedCommandDrive(x, xdot, v, vdot, v_start, elapsed)
 
-    def _lagged(self, w_start, v_start, v, vdot, elapsed):
-        """The field `elapsed` after the start of a sample interval where it was
-        w_start and the command v_start, for a command that is linear inside the
-        interval (now v, with rate vdot): the exact solution of w' = (v - w)/lag.
-        With lag = 0 it is v (w_start = v_start then): the floor only keeps the
-        exponent finite, and the lag's derivative there is -vdot, the first-order
-        effect a short lag has."""
+    def _first_order(self, start, input_start, input_now, input_rate, elapsed, lag):
+        """A first-order stage `elapsed` after the start of a sample interval where
+        it was `start` and its input `input_start`, for an input moving at
+        `input_rate` (now `input_now`): the exact solution of x' = (input - x)/lag.
+        With lag = 0 it is the input (start = input_start then): the floor only
+        keeps the exponent finite, and the lag's derivative there is -input_rate,
+        the first-order effect a short lag has."""
         floor = 1e-9 * jnp.abs(self.time_scale)
-        decay = jnp.exp(-elapsed / jnp.maximum(self.command_lag, floor))
-        return v + (w_start - v_start) * decay - vdot * self.command_lag * (1 - decay)
+        decay = jnp.exp(-elapsed / jnp.maximum(lag, floor))
+        return (
+            input_now + (start - input_start) * decay - input_rate * lag * (1 - decay)
+        )
+
+    def _lagged(self, current, field, v_start, v, vdot, elapsed):
+        """(current, field) `elapsed` into a sample interval that started at
+        (`current`, `field`) with the command at v_start, for a command that is
+        linear inside the interval (now v, with rate vdot). The field's input, the
+        current, is taken as moving at its mean rate since the interval's start."""
+        floor = 1e-9 * jnp.abs(self.time_scale)
+        now = self._first_order(current, v_start, v, vdot, elapsed, self.command_lag)
+        rate = (now - current) / jnp.maximum(elapsed, floor)
+        return now, self._first_order(
+            field, current, now, rate, elapsed, self.field_lag
+        )
 
     def field_strength(self, w: Float[ArrayLike, ""]) -> Float[Array, ""]:
         """s = q/(1 + field_knee*q), q = |w|/command_scale: the field's effect at
@@ -240,7 +268,9 @@ class ExtendedDamper(AbstractHysteresisModel):
     # The drive is the one this model's `drive` returns.
     def vector_field(self, t, state, drive: LaggedCommandDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
         z, xdot = state[0], drive.udot
-        w = self._lagged(state[1], drive.v_start, drive.v, drive.vdot, drive.elapsed)
+        _, w = self._lagged(
+            state[1], state[2], drive.v_start, drive.v, drive.vdot, drive.elapsed
+        )
         alpha, c0, grows, r = self._coefficients(w, xdot)
         # ydot = (alpha*z + c0*grows*xdot)/(c0*grows + c1), c1 = grows/r.
         ydot = r * (alpha * z / grows + c0 * xdot) / (1 + r * c0)
@@ -253,14 +283,16 @@ class ExtendedDamper(AbstractHysteresisModel):
             self._gamma(z),
             self.n,
         )
-        # w is advanced once per sample interval, exactly, by `sample_update`.
-        return jnp.stack([zdot, jnp.zeros_like(zdot)])
+        # The current and the field are advanced once per sample interval by
+        # `sample_update`.
+        zero = jnp.zeros_like(zdot)
+        return jnp.stack([zdot, zero, zero])
 
     def sample_update(self, inputs):
-        """The field w at the end of each sample interval: the exact solution of
-        w' = (v - w)/command_lag over it for the piecewise-linear command (any lag,
-        however short against the sample interval; lag 0 gives w = v). None for a
-        path without a command (the simulation then refuses it)."""
+        """The current and the field at the end of each sample interval, from the
+        same solution the interval's RK4 stages read (`_lagged`: any lag, however
+        short against the sample interval; lags 0 give w = v). None for a path
+        without a command (the simulation then refuses it)."""
         if inputs.channels is None:
             return None
         command = inputs.channels[0]
@@ -268,14 +300,16 @@ class ExtendedDamper(AbstractHysteresisModel):
 
         def update(start, end, interval):
             v_start, v_end = command[interval], command[interval + 1]
-            w = self._lagged(start[1], v_start, v_end, (v_end - v_start) / dt, dt)
-            return end.at[1].set(w)
+            current, field = self._lagged(
+                start[1], start[2], v_start, v_end, (v_end - v_start) / dt, dt
+            )
+            return end.at[1].set(current).at[2].set(field)
 
         return update
 
     def output(self, t, state, drive):
         xdot = drive.udot
-        alpha, c0, grows, r = self._coefficients(state[1], xdot)
+        alpha, c0, grows, r = self._coefficients(state[2], xdot)
         # The block (Bouc-Wen element beside c0) transmits c1*ydot =
         # (alpha*z + c0*xdot)/(1 + c0/c1); summed in `BoucWenDamper.output`'s order,
         # so that with every effect off the sums round alike.
@@ -286,16 +320,22 @@ class ExtendedDamper(AbstractHysteresisModel):
             + self.k0 * (drive.u - self.x0)
             + alpha * state[0] * share
             + self.f0
-            + self.trend * s
-            + self.curvature * (s**2 - 1.0 / 3.0)
-            + self.wander * (5 * s**3 - 3 * s) / 2
-            + self.legendre4 * (35 * s**4 - 30 * s**2 + 3) / 8
-            + self.legendre5 * (63 * s**5 - 70 * s**3 + 15 * s) / 8
+            + legendre_drift(
+                s,
+                self.trend,
+                self.curvature,
+                self.wander,
+                self.legendre4,
+                self.legendre5,
+                self.legendre6,
+                self.legendre7,
+                self.legendre8,
+            )
         )
 
     def initial_state(self, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
         v = jnp.asarray(drive.v)
-        return jnp.stack([jnp.zeros_like(v), v])
+        return jnp.stack([jnp.zeros_like(v), v, v])
 
     # ---------------------------------------------------------------- stiffness
 

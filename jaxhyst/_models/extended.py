@@ -21,6 +21,7 @@ from .base import (
     BoucWenShape,
     as_parameter,
     hysteretic_rate,
+    legendre_drift,
     read_input,
 )
 from .bouc_wen import PiezoBoucWen, ShiftedDrive
@@ -219,12 +220,7 @@ class ExtendedPiezo(AbstractHysteresisModel):
         """The output's drift at time `t` (the Legendre terms), added after the
         stage."""
         s = (t - self.time_center) / self.time_scale
-        return (
-            self.offset
-            + self.trend * s
-            + self.curvature * (s**2 - 1.0 / 3.0)
-            + self.wander * (5 * s**3 - 3 * s) / 2
-        )
+        return self.offset + legendre_drift(s, self.trend, self.curvature, self.wander)
 
     # The drive is the one this model's `drive` returns.
     def vector_field(self, t, state, drive: ShiftedDrive):  # pyright: ignore[reportIncompatibleMethodOverride]

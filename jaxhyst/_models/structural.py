@@ -36,7 +36,12 @@ from jaxtyping import Array, Float
 
 from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
-from .base import AbstractHysteresisModel, BoucWenShape, as_parameter
+from .base import (
+    AbstractHysteresisModel,
+    BoucWenShape,
+    as_parameter,
+    legendre_drift,
+)
 from .bouc_wen import BoucWen
 
 
@@ -188,7 +193,5 @@ class StructuralBoucWen(AbstractHysteresisModel):
             self.alpha * self.k * (x + self.stiffness_skew * self.smoothing.abs(x))
             + (1 - self.alpha) * self.k * state[0]
             + self.offset
-            + self.trend * s
-            + self.curvature * (s**2 - 1.0 / 3.0)
-            + self.wander * (5 * s**3 - 3 * s) / 2
+            + legendre_drift(s, self.trend, self.curvature, self.wander)
         )

@@ -6,11 +6,13 @@ from .base import AbstractEffect, carries, conclude, fitted, named_units
 
 
 class DamperOffset(AbstractEffect):
-    """`ExtendedDamper`'s Legendre terms in time, degrees 1 to 5 (trend,
-    curvature, wander, legendre4, legendre5), added to the force: the
+    """`ExtendedDamper`'s Legendre terms in time, degrees 1 to 8 (trend,
+    curvature, wander, legendre4 ... legendre8), added to the force: the
     accumulator's preload drifting as the gas warms, a load-cell zero drifting.
-    The constant part is the base model's f0. Five degrees follow a zero that
-    wanders back and forth over the record, not only one that creeps one way; under
+    The constant part is the base model's f0. Eight degrees follow a zero that
+    wanders back and forth up to four times over the record (a random walk smoothed
+    over a quarter of it leaves under a tenth of its RMS to degree 8, a third to
+    degree 5), not only one that creeps one way; under
     random motion (the white-noise tests this family reads) slow functions of time
     are nearly orthogonal to the mechanics, so the extra terms take nothing from
     the other effects, and the held-out blocks judge them by interpolation."""
@@ -22,6 +24,9 @@ class DamperOffset(AbstractEffect):
         "wander",
         "legendre4",
         "legendre5",
+        "legendre6",
+        "legendre7",
+        "legendre8",
     )
     meaning: ClassVar[str] = (
         "the force's zero moves along the record, independently of the motion "
@@ -46,7 +51,7 @@ class DamperOffset(AbstractEffect):
 
     def reading(self, values, errors, units):
         # trend*s + curvature*(s^2 - 1/3) + wander*(5 s^3 - 3 s)/2
-        # + legendre4*P4(s) + legendre5*P5(s), s from -1 to 1.
+        # + legendre4*P4(s) + ... + legendre8*P8(s), s from -1 to 1.
         def q(name, scale=1.0):
             return fitted(values, errors, units, name, scale)
 
@@ -54,7 +59,7 @@ class DamperOffset(AbstractEffect):
             f"the force's zero moves by {q('trend', 2.0)} from the start of the record "
             f"to its end (a linear trend); its ends sit {q('curvature')} above its "
             f"middle (curvature); an S-shaped wander reaches {q('wander')} at the end "
-            f"(its opposite at the start); the degree-4 and degree-5 Legendre terms, "
-            f"{q('legendre4')} and {q('legendre5')} at the end, follow a zero that "
-            "goes back and forth; the constant preload is the base's f0"
+            f"(its opposite at the start); the Legendre terms of degree 4 to 8, "
+            f"{', '.join(q(f'legendre{k}') for k in range(4, 9))} at the end, follow "
+            "a zero that goes back and forth; the constant preload is the base's f0"
         )

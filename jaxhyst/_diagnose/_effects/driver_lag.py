@@ -1,4 +1,5 @@
-"""Driver lag: the field follows the command through first-order dynamics."""
+"""Driver lag: the field follows the command through one or two first-order
+stages."""
 
 from typing import ClassVar
 
@@ -20,13 +21,16 @@ LAGS_IN_SAMPLES = (1.0, 3.0, 10.0, 30.0, 100.0)
 
 
 class DriverLag(AbstractEffect):
-    """`ExtendedDamper`'s command_lag: the field w follows the command v as
-    w' = (v - w)/command_lag (the coil's inductance, the driver's current loop and
-    the fluid's own response), exact per sample. Seen only through the field's
-    effect: with no field dependence in the model it has no direction to score."""
+    """`ExtendedDamper`'s command_lag and field_lag: the field follows the command
+    through two first-order stages in series (the driver's current loop and the
+    coil's L/R, then eddy currents and the fluid's own response), each exact per
+    sample; field_lag = 0 is the single stage of Spencer et al. (their eta). Two
+    stages follow a driver that settles like a second-order system, which one
+    cannot. Seen only through the field's effect: with no field dependence in the
+    model it has no direction to score."""
 
     name: ClassVar[str] = "driver_lag"
-    parameters: ClassVar[tuple[str, ...]] = ("command_lag",)
+    parameters: ClassVar[tuple[str, ...]] = ("command_lag", "field_lag")
     needs: ClassVar[str | None] = "field_dependence"
     meaning: ClassVar[str] = (
         "the field lags the command: after each switch the force reaches its new "
@@ -35,17 +39,31 @@ class DriverLag(AbstractEffect):
     )
 
     def bounds(self, name, value, scales: RefitScales):
-        if name == "command_lag":
+        if name in self.parameters:
             return (0.0, min(0.2 * scales.duration, 300.0 / scales.sample_rate))
         return None
 
+    def sensitivity_parameters(self, model):
+        # At zero lags both stages move the force alike (minus the command's rate
+        # times d(force)/d(field)): one direction to score. Once adopted, both are
+        # free parameters and need their own columns.
+        return self.parameters if self.is_on(model) else ("command_lag",)
+
+    def directions(self, columns, predicted, dt):
+        return columns["command_lag"][:, None]
+
     def starting_points(self, current, step, scales):
         # A lag is far from linear in its time constant beyond a sample or two: a
-        # grid of lags besides the score step.
+        # grid of lags besides the score step, in one stage and split evenly over
+        # two (the critically damped second-order driver; a refit cannot leave
+        # the single stage for two, whose first-order change is the same).
         models = super().starting_points(current, step, scales)
-        models += [
-            current.replace(command_lag=k / scales.sample_rate) for k in LAGS_IN_SAMPLES
-        ]
+        for k in LAGS_IN_SAMPLES:
+            lag = k / scales.sample_rate
+            models += [
+                current.replace(command_lag=lag, field_lag=0.0),
+                current.replace(command_lag=lag / 2, field_lag=lag / 2),
+            ]
         return models
 
     def always_refit(self):
@@ -73,13 +91,22 @@ class DriverLag(AbstractEffect):
         )
 
     def units(self, *, time, input, output):
-        return {"command_lag": named_units(time, input, output).time}
+        return dict.fromkeys(self.parameters, named_units(time, input, output).time)
 
     def reading(self, values, errors, units):
-        scale, unit = time_scale(values["command_lag"], units["command_lag"])
-        lag = fitted(values, errors, units, "command_lag", scale, unit)
+        first, second = values["command_lag"], values["field_lag"]
+        scale, unit = time_scale(max(first, second), units["command_lag"])
+        lags = [fitted(values, errors, units, p, scale, unit) for p in self.parameters]
+        if min(first, second) < 0.05 * max(first, second):
+            main = lags[0] if first >= second else lags[1]
+            return (
+                f"the field follows the command with a time constant of {main} (a "
+                "single first-order stage; the second is negligible): it reaches "
+                "63 % of a command step after one time constant and 95 % after three"
+            )
         return (
-            f"the field follows the command with a time constant of {lag}: it "
-            "reaches 63 % of a command step after one time constant and 95 % after "
-            "three"
+            f"the field follows the command through two first-order stages of {lags[0]} "
+            f"and {lags[1]} (a step response that starts flat, like a second-order "
+            f"driver's): it settles over about {scale * (first + second):.3g} {unit} "
+            "(the mean delay, the two time constants' sum)"
         )
