@@ -5,6 +5,7 @@ is named and a clean record names nothing; the synthetic cases and the command
 line."""
 
 import dataclasses
+import functools
 import json
 
 import equinox as eqx
@@ -182,7 +183,7 @@ def test_the_lagged_field_is_exact_per_sample_and_continuous_at_zero(lags):
         if lag != 0.0:
             continue
         _, tangent = jax.jvp(
-            lambda value: force(name, value), (jnp.asarray(0.0),), (jnp.asarray(1.0),)
+            functools.partial(force, name), (jnp.asarray(0.0),), (jnp.asarray(1.0),)
         )
         difference = (
             force(name, jnp.asarray(1e-7)) - force(name, jnp.asarray(0.0))
