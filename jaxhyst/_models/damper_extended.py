@@ -218,6 +218,10 @@ class ExtendedDamper(AbstractHysteresisModel):
         elapsed = jnp.asarray(frac, path.dt.dtype) * path.dt
         return LaggedCommandDrive(x, xdot, v, vdot, v_start, elapsed)
 
+    def _time_floor(self):
+        # A duration far below any sample interval, which keeps divisions finite.
+        return 1e-9 * jnp.abs(self.time_scale)
+
     def _first_order(self, start, input_start, input_now, input_rate, elapsed, lag):
         """A first-order stage `elapsed` after the start of a sample interval where
         it was `start` and its input `input_start`, for an input moving at
@@ -225,8 +229,7 @@ class ExtendedDamper(AbstractHysteresisModel):
         With lag = 0 it is the input (start = input_start then): the floor only
         keeps the exponent finite, and the lag's derivative there is -input_rate,
         the first-order effect a short lag has."""
-        floor = 1e-9 * jnp.abs(self.time_scale)
-        decay = jnp.exp(-elapsed / jnp.maximum(lag, floor))
+        decay = jnp.exp(-elapsed / jnp.maximum(lag, self._time_floor()))
         return (
             input_now + (start - input_start) * decay - input_rate * lag * (1 - decay)
         )
@@ -236,9 +239,8 @@ class ExtendedDamper(AbstractHysteresisModel):
         (`current`, `field`) with the command at v_start, for a command that is
         linear inside the interval (now v, with rate vdot). The field's input, the
         current, is taken as moving at its mean rate since the interval's start."""
-        floor = 1e-9 * jnp.abs(self.time_scale)
         now = self._first_order(current, v_start, v, vdot, elapsed, self.command_lag)
-        rate = (now - current) / jnp.maximum(elapsed, floor)
+        rate = (now - current) / jnp.maximum(elapsed, self._time_floor())
         return now, self._first_order(
             field, current, now, rate, elapsed, self.field_lag
         )

@@ -11,8 +11,8 @@ class DamperOffset(AbstractEffect):
     accumulator's preload drifting as the gas warms, a load-cell zero drifting.
     The constant part is the base model's f0. Eight degrees follow a zero that
     wanders back and forth up to four times over the record (a random walk smoothed
-    over a quarter of it leaves under a tenth of its RMS to degree 8, a third to
-    degree 5), not only one that creeps one way; under
+    over a quarter of it leaves a median 5 % of its RMS to degree 8, 12 % to degree
+    5), not only one that creeps one way; under
     random motion (the white-noise tests this family reads) slow functions of time
     are nearly orthogonal to the mechanics, so the extra terms take nothing from
     the other effects, and the held-out blocks judge them by interpolation."""
