@@ -1,11 +1,13 @@
 """Refits of the extended model over a subset of its parameters: bounds from the
 effects and the record's scales, a short swarm for the basin, then a
 Levenberg-Marquardt polish through the padded active problem that lets fits over
-different free sets share one compilation."""
+different free sets share one compilation, with the effects' additive terms solved
+in closed form (variable projection)."""
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, PRNGKeyArray
 
 from .._identification._polish import LevenbergMarquardtPolish
@@ -13,6 +15,7 @@ from .._identification._problem import (
     Problem,
     decimated,
     model_at,
+    problem_residuals,
     problem_rmse,
     swarm_objective,
 )
@@ -121,29 +124,64 @@ def refit(
     # Decimated fits (screening, converging, final) come in many free sets and are
     # cheap per step: one padded size for all of them. Full-rate ones (a stage
     # resonance) are expensive per tangent: the tightest size.
+    solved = additive_names(family, space, free)
     active = ActiveProblem.build(
         problem,
         z0,
-        [space.names.index(n) for n in free],
+        [space.names.index(n) for n in free if n not in solved],
         smallest=11 if problem.measured.shape[-1] < length else 8,
+        additive_index=[space.names.index(n) for n in solved],
     )
-    polish = LevenbergMarquardtPolish(max_steps=settings.max_steps, min_gain=1e-5)
-    # `ActiveProblem` offers the part of `Problem` a polish uses.
-    result = polish.run(active, active.start())  # pyright: ignore[reportArgumentType]
-    return model_at(space, active.full(result.z))
+    z = active.start()
+    if len(solved) < len(free):
+        polish = LevenbergMarquardtPolish(max_steps=settings.max_steps, min_gain=1e-5)
+        # `ActiveProblem` offers the part of `Problem` a polish uses.
+        z = polish.run(active, z).z  # pyright: ignore[reportArgumentType]
+    return model_at(space, active.solved(z))
+
+
+def additive_names(
+    family: AbstractFamily, space: ParameterSpace, free
+) -> tuple[str, ...]:
+    """The parameters of `free` that a refit solves in closed form: those the
+    catalogue's effects declare `additive`, where the space maps them linearly (no
+    log scale, no floor), so that the output is affine in their coordinates."""
+    declared = {p for effect in family.catalogue for p in effect.additive}
+    floor = np.asarray(space.floor)
+    return tuple(
+        n
+        for n in free
+        if n in declared
+        and not space.log_scale[space.names.index(n)]
+        and np.isneginf(floor[space.names.index(n)])
+    )
 
 
 class ActiveProblem(eqx.Module):
     """A `Problem` seen through its free coordinates only, padded to a few fixed
     sizes: the Jacobian then costs one tangent per free parameter (not per parameter
-    of the space), and fits over different free sets share a compilation."""
+    of the space), and fits over different free sets share a compilation.
+
+    The `additive` coordinates (parameters that add a fixed function of time to the
+    output, such as Legendre drift terms) are not among the free ones: the residuals
+    are projected off the directions they move them along, which gives, for any
+    value of the free coordinates, the least sum of squares over the additive ones
+    (variable projection, exact here because those directions depend on no
+    parameter). `solved` then sets them to that least-squares value. A polish thus
+    searches fewer coordinates (one tangent each per step) and never has to walk
+    the linear ones to their optimum."""
 
     problem: Problem
     base: jax.Array
     index: jax.Array
+    additive: jax.Array
+    # The residuals' change per unit of each additive coordinate (m, k), and an
+    # orthonormal basis of the span of those columns (m, r); None without any.
+    directions: jax.Array | None
+    basis: jax.Array | None
 
     @classmethod
-    def build(cls, problem, z0, free_index, smallest=8):
+    def build(cls, problem, z0, free_index, smallest=8, additive_index=()):
         # Few distinct sizes, so that fits over different free sets share one
         # compiled program (each costs seconds to compile; a padded coordinate costs
         # one tangent per Jacobian).
@@ -151,7 +189,26 @@ class ActiveProblem(eqx.Module):
         sizes = [k for k in (8, 11, 14, total) if k >= smallest]
         size = next(k for k in sizes if k >= len(free_index))
         padding = [total] * (size - len(free_index))
-        return cls(problem, jnp.asarray(z0), jnp.asarray(list(free_index) + padding))
+        z0 = jnp.asarray(z0)
+        additive = jnp.asarray(list(additive_index), dtype=int)
+        directions = basis = None
+        if len(additive_index):
+            directions = _residual_directions(problem, z0, additive)
+            columns = np.asarray(directions)
+            left, singular, _ = np.linalg.svd(columns, full_matrices=False)
+            # Columns that all samples leave at zero (a term the weights mask out
+            # entirely) span nothing: drop them rather than project a random
+            # direction out.
+            keep = singular > 1e-10 * max(float(singular[0]), np.finfo(float).tiny)
+            basis = jnp.asarray(left[:, keep])
+        return cls(
+            problem,
+            z0,
+            jnp.asarray(list(free_index) + padding),
+            additive,
+            directions,
+            basis,
+        )
 
     def full(self, z):
         extended = jnp.concatenate([self.base, jnp.zeros(1, self.base.dtype)])
@@ -162,11 +219,40 @@ class ActiveProblem(eqx.Module):
         return extended[self.index]
 
     def residuals(self, z):
-        return self.problem.residuals(self.full(z))
+        residuals = self.problem.residuals(self.full(z))
+        if self.basis is None:
+            return residuals
+        return residuals - self.basis @ (self.basis.T @ residuals)
 
     def rmse(self, z):
-        return self.problem.rmse(self.full(z))
+        if self.basis is None:
+            return self.problem.rmse(self.full(z))
+        weights = self.problem.weights
+        weight = self.residuals(z).size if weights is None else jnp.sum(weights**2)
+        squared = jnp.sum(self.residuals(z) ** 2)
+        return self.problem.output_scale * jnp.sqrt(squared / weight)
+
+    def solved(self, z) -> jax.Array:
+        """Every coordinate of the space: the free ones from `z`, the additive ones
+        at their least-squares values given those."""
+        full = self.full(z)
+        if self.directions is None:
+            return full
+        residuals = np.asarray(problem_residuals(self.problem, full))
+        step, *_ = np.linalg.lstsq(np.asarray(self.directions), -residuals, rcond=None)
+        return full.at[self.additive].add(jnp.asarray(step, full.dtype))
 
     @property
     def fitted_samples(self) -> int:
         return self.problem.fitted_samples
+
+
+@eqx.filter_jit
+def _residual_directions(problem: Problem, z: Array, coordinates: Array) -> Array:
+    """The residuals' derivative along each of `coordinates` at `z`, (m, k)."""
+
+    def along(coordinate):
+        tangent = jnp.zeros_like(z).at[coordinate].set(1.0)
+        return jax.jvp(lambda w: problem.residuals(w), (z,), (tangent,))[1]
+
+    return jax.vmap(along, out_axes=1)(coordinates)

@@ -50,6 +50,11 @@ class AbstractEffect(eqx.Module):
     log_scaled: ClassVar[tuple[str, ...]] = ()
     # Parameters that only shape the effect (inert while its gains are zero).
     shape_parameters: ClassVar[tuple[str, ...]] = ()
+    # Parameters that add a fixed function of time to the output (the output's
+    # sensitivity to them depends on no parameter): refits solve them in closed
+    # form instead of searching them (`ActiveProblem`). Declare only what the
+    # model makes exactly so; a test checks it for every family.
+    additive: ClassVar[tuple[str, ...]] = ()
 
     @property
     def gains(self) -> tuple[str, ...]:

@@ -28,6 +28,7 @@ class DamperOffset(AbstractEffect):
         "legendre7",
         "legendre8",
     )
+    additive: ClassVar[tuple[str, ...]] = parameters
     meaning: ClassVar[str] = (
         "the force's zero moves along the record, independently of the motion "
         "(the accumulator's preload changing as the damper warms, a load-cell or "

@@ -1,0 +1,189 @@
+"""Refits: the effects' additive terms are solved in closed form (variable
+projection) and give the least-squares fit a search over them would reach."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+from jaxhyst._diagnose._effects.base import RefitScales
+from jaxhyst._diagnose._refit import (
+    ActiveProblem,
+    RefitSettings,
+    additive_names,
+    refit,
+    refit_space,
+)
+from jaxhyst._identification._polish import LevenbergMarquardtPolish
+from jaxhyst._identification._problem import Problem
+
+
+def _structural():
+    levels = (1, 2, 3, 4, 6, 8)
+    legs = [a * np.sin(np.linspace(0, 4 * np.pi, 160, endpoint=False)) for a in levels]
+    x = np.concatenate([*legs, np.zeros(1)])
+    path = jh.Recording.quasi_static(x, x).input_path()
+    base = jh.BoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 0.0, 1.5)
+    model = jh.StructuralBoucWen.around(base, path, 20.0)
+    on = dict(strength_degradation=0.2, pinch=0.5, pinch_width=0.3, yield_skew=0.1)
+    return jh.StructuralFamily(), model, model.replace(**on, k=12.0), x
+
+
+def _damper():
+    rate = 3004.8
+    rng = np.random.default_rng(0)
+    t = np.arange(1503) / rate
+    x = np.sum(
+        [np.sin(2 * np.pi * f * t + rng.uniform(0, 6.3)) for f in (1, 3, 7, 13)], 0
+    )
+    v = rng.uniform(0.0, 2.5, 11)[(t / 0.05).astype(int)]
+    total = 0.02**-1.5
+    base = jh.BoucWenDamper(
+        25.0, 12.0, 0.1, 9e3, -15.0, 1.0, 0.7 * total, 0.3 * total, 1.5
+    )
+    path = jh.InputPath.from_samples(t, 0.2 * x, channels=v[None])
+    force = np.asarray(jh.simulate(base, path, jh.RK4(substeps=4)))
+    recording = jh.Recording(t, 0.2 * x, force, more_inputs={"command": v})
+    family = jh.DamperFamily()
+    model = family.extend(base, recording)
+    on = dict(field_alpha=3.0, command_lag=0.005, rolloff=0.1, skew=0.2, c0=30.0)
+    return family, model, model.replace(**on), recording.input_path()
+
+
+def _piezo():
+    path = jh.sample(jh.paper_u1(), 200.0)
+    base = jh.PiezoBoucWen.paper_table4(3)
+    model = jh.ExtendedPiezo.around(base, path)
+    on = dict(skew=0.1, rate_gain=0.05, creep_fast=0.01, quad=0.02)
+    return jh.PiezoFamily(), model, model.replace(**on), path
+
+
+def _sensitivities(model, names, path, solver):
+    """The output's derivative in each of `names` at `model`."""
+
+    def output(values):
+        moved = eqx.tree_at(
+            lambda m: [getattr(m, n) for n in names], model, list(values)
+        )
+        return jh.simulate(moved, path, solver)
+
+    at = jnp.asarray([float(getattr(model, n)) for n in names])
+    return jax.vmap(lambda d: jax.jvp(output, (at,), (d,))[1], out_axes=1)(
+        jnp.eye(len(names))
+    )
+
+
+@pytest.mark.parametrize("which", ["structural", "damper", "piezo"])
+def test_declared_additive_terms_add_a_fixed_function_of_time(which):
+    if which == "structural":
+        family, off, on, x = _structural()
+        path = jh.Recording.quasi_static(x, x).input_path()
+    elif which == "damper":
+        family, off, on, path = _damper()
+    else:
+        family, off, on, path = _piezo()
+    names = [p for e in family.catalogue for p in e.additive]
+    assert names, "every family has a drift or offset whose terms are additive"
+    solver = jh.RK4(substeps=2)
+    # The same columns wherever the other parameters (effects on or off) and the
+    # additive terms themselves stand: the output is affine in them.
+    moved = on.replace(**{n: 0.5 for n in names})
+    reference = _sensitivities(off, names, path, solver)
+    assert float(jnp.min(jnp.max(jnp.abs(reference), axis=0))) > 0.1
+    for model in (on, moved):
+        np.testing.assert_allclose(
+            _sensitivities(model, names, path, solver), reference, rtol=0, atol=1e-9
+        )
+
+
+def test_additive_names_skip_log_scaled_or_floored_parameters():
+    family, model, _, _ = _structural()
+    space = jh.ParameterSpace(
+        model,
+        {"k": (5.0, 20.0), "offset": (-1.0, 1.0), "trend": (0.1, 1.0)},
+        log_scale=["trend"],
+    )
+    assert additive_names(family, space, ["k", "offset", "trend"]) == ("offset",)
+
+
+def _drifting_structural_problem():
+    family, model, _, x = _structural()
+    path = jh.Recording.quasi_static(x, x).input_path()
+    truth = model.replace(
+        strength_degradation=0.1, offset=0.4, trend=-0.3, curvature=0.2, wander=0.1
+    )
+    force = np.array(jh.simulate(truth, path, jh.RK4(substeps=2)))
+    force += 0.01 * np.std(force) * np.random.default_rng(1).standard_normal(x.size)
+    weights = np.ones(x.size)
+    weights[::7] = 0.0  # a held-out share, as a diagnosis masks it
+    start = model.replace(k=11.0, alpha=0.06)
+    return family, start, path, jnp.asarray(force), jnp.asarray(weights)
+
+
+def test_a_refit_with_additive_terms_reaches_the_joint_least_squares_fit():
+    family, start, path, force, weights = _drifting_structural_problem()
+    solver = jh.RK4(substeps=2)
+    free = ["k", "alpha", "strength_degradation", "offset", "trend", "curvature"]
+    free += ["wander"]
+    scales = RefitScales(1.0, float(path.t1 - path.t0), {})
+    space = refit_space(family, start, free, scales)
+    problem = Problem(space, path, force, solver, weights)
+    z0 = space.from_model(start)
+    solved = additive_names(family, space, free)
+    assert solved == ("offset", "trend", "curvature", "wander")
+    index = [space.names.index(n) for n in free]
+    polish = LevenbergMarquardtPolish(max_steps=200, min_gain=1e-14, rtol=1e-12)
+    projected = ActiveProblem.build(
+        problem,
+        z0,
+        [i for i, n in zip(index, free) if n not in solved],
+        additive_index=[space.names.index(n) for n in solved],
+    )
+    searched = ActiveProblem.build(problem, z0, index)
+    z_projected = projected.solved(polish.run(projected, projected.start()).z)  # pyright: ignore[reportArgumentType]
+    z_searched = searched.full(polish.run(searched, searched.start()).z)  # pyright: ignore[reportArgumentType]
+    rmse_projected = float(problem.rmse(z_projected))
+    rmse_searched = float(problem.rmse(z_searched))
+    # Projection reaches the joint optimum (a search over every coordinate gets no
+    # lower), with the residual orthogonal to every additive direction.
+    assert rmse_projected <= rmse_searched * (1 + 1e-7)
+    residual = np.asarray(problem.residuals(z_projected))
+    assert projected.directions is not None
+    directions = np.asarray(projected.directions)
+    cosine = directions.T @ residual / np.linalg.norm(directions, axis=0)
+    assert float(np.max(np.abs(cosine))) < 1e-8 * np.linalg.norm(residual)
+    # The projected problem's RMSE is what `solved` then gives.
+    np.testing.assert_allclose(
+        float(projected.rmse(projected.start())),
+        float(problem.rmse(projected.solved(projected.start()))),
+        rtol=1e-10,
+    )
+    # The public refit takes the same route.
+    settings = RefitSettings(200, None, 1)
+    fitted = refit(family, start, free, path, force, weights, solver, scales, settings)
+    np.testing.assert_allclose(
+        float(problem.rmse(space.from_model(fitted))), rmse_projected, rtol=1e-6
+    )
+
+
+def test_a_refit_of_additive_terms_alone_needs_no_search():
+    family, start, path, force, weights = _drifting_structural_problem()
+    solver = jh.RK4(substeps=2)
+    scales = RefitScales(1.0, float(path.t1 - path.t0), {})
+    free = ["offset", "trend"]
+    settings = RefitSettings(20, None, 1)
+    fitted = refit(family, start, free, path, force, weights, solver, scales, settings)
+    predicted = np.asarray(jh.simulate(start, path, solver))
+    s = np.asarray((path.times - start.time_center) / start.time_scale)
+    columns = np.stack([np.ones_like(s), s], 1) * np.asarray(weights)[:, None]
+    target = (np.asarray(force) - predicted) * np.asarray(weights)
+    coefficients, *_ = np.linalg.lstsq(columns, target, rcond=None)
+    assert isinstance(fitted, jh.StructuralBoucWen)
+    np.testing.assert_allclose(
+        [float(fitted.offset - start.offset), float(fitted.trend - start.trend)],
+        coefficients,
+        rtol=1e-8,
+        atol=1e-10,
+    )
