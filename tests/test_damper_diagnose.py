@@ -66,6 +66,7 @@ SWITCHED_ON = dict(
     legendre6=2.0,
     legendre7=-1.5,
     legendre8=1.0,
+    valve_width=0.3,
 )
 
 
@@ -78,7 +79,7 @@ def test_every_effect_off_is_the_fixed_field_damper():
         jh.simulate(extended, path, SOLVER), expected, rtol=0, atol=1e-9
     )
     # Shape parameters are inert while their effect's gains are zero.
-    inert = extended.replace(field_knee=3.0)
+    inert = extended.replace(field_knee=3.0, valve_width=0.5)
     np.testing.assert_allclose(
         jh.simulate(inert, path, SOLVER), expected, rtol=0, atol=1e-9
     )
