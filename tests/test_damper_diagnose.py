@@ -220,11 +220,11 @@ def test_the_valving_switches_over_its_width():
     difference = (force(0.3 + 1e-5) - force(0.3 - 1e-5)) / 2e-5
     np.testing.assert_allclose(slope, difference, rtol=1e-4, atol=1e-3)
     assert float(jnp.max(jnp.abs(slope))) > 1.0
-    # So the score test reads skew and damping_skew only until the band opens,
+    # So the score test reads skew and damping_skew only until the effect is in,
     # and refits start from a grid of widths.
     effect = jh.DamperAsymmetry()
-    assert effect.sensitivity_parameters(abrupt) == ("skew", "damping_skew")
-    assert effect.sensitivity_parameters(gradual) == effect.parameters
+    assert effect.sensitivity_parameters(model) == ("skew", "damping_skew")
+    assert effect.sensitivity_parameters(abrupt) == effect.parameters
     scales = RefitScales(RATE, 0.5, {})
     starts = effect.starting_points(abrupt, {"skew": 0.0, "damping_skew": 0.1}, scales)
     assert {0.1, 0.3, 1.0} <= {effect.values(m)["valve_width"] for m in starts}

@@ -50,10 +50,9 @@ class DamperAsymmetry(AbstractEffect):
 
     def sensitivity_parameters(self, model):
         # At valve_width = 0 the force does not move with it (it enters squared):
-        # no column to score; once the width is open it is a free parameter.
-        if self.values(model)["valve_width"] != 0.0:
-            return self.parameters
-        return ("skew", "damping_skew")
+        # no column to score. Once the effect is in the model all three are free
+        # parameters and need their columns (the width's is zero while it is).
+        return self.parameters if self.is_on(model) else ("skew", "damping_skew")
 
     def directions(self, columns, predicted, dt):
         return np.stack([columns["skew"], columns["damping_skew"]], axis=1)
