@@ -187,3 +187,24 @@ def test_a_refit_of_additive_terms_alone_needs_no_search():
         rtol=1e-8,
         atol=1e-10,
     )
+
+
+@pytest.mark.parametrize("which", ["structural", "damper", "piezo"])
+def test_an_effect_in_the_model_has_a_column_for_every_parameter(which):
+    # Once adopted, every parameter of an effect is free in later refits, and the
+    # score test projects the residual off their columns: each needs one, even a
+    # shape parameter whose column is zero where it stands.
+    family, off, _, _ = {
+        "structural": _structural,
+        "damper": _damper,
+        "piezo": _piezo,
+    }[which]()
+    if which == "piezo":
+        # The stage dynamics are switched on structurally, not by a gain.
+        path = jh.sample(jh.paper_u1(), 200.0)
+        base = jh.PiezoBoucWen.paper_table4(3)
+        off = jh.ExtendedPiezo.around(base, path, dynamic=True)
+    for effect in family.catalogue:
+        on = off.replace(**dict.fromkeys(effect.gains, 0.1))
+        assert effect.is_on(on), effect.name
+        assert set(effect.sensitivity_parameters(on)) == set(effect.parameters)
