@@ -315,24 +315,21 @@ def _windowed_start(
     """The base swarm and polish on the first `window` samples at the full rate:
     `swarms[0]` from two keys, each further swarm from one (a swarm of a
     sharp-looped model can settle in a wrong basin: on a clean synthetic damper
-    record one key's fit stayed at 9.4 noise sigmas, the other's reached 1.00);
-    the start with the lowest fitted-sample error there. The base fit then polishes
-    it on every fitted sample."""
+    record one key's fit stayed at 9.4 noise sigmas, the other's reached 1.00), and
+    a polish from each of the family's `base_starts`; the fit with the lowest
+    fitted-sample error there. The base fit then polishes it on every fitted
+    sample."""
     first = ctx.recording.segment(None, float(ctx.recording.t[window - 1]))
     weights = ctx.weights[: first.num_samples]
-    attempts = [(swarms[0], ctx.key), (swarms[0], jax.random.fold_in(ctx.key, 1))]
-    attempts += [
-        (other, jax.random.fold_in(ctx.key, 1 + number))
-        for number, other in enumerate(swarms[1:], 1)
-    ]
-    best, best_mse = None, math.inf
-    for swarm, key in attempts:
+
+    def window_fit(swarm: MPSO | None, key, start) -> tuple[Any, float]:
         fit = identify(
             ctx.family.base_template(),
             first,
             key=key,
             space=ctx.family.base_space(ctx.recording),
             swarm=swarm,
+            start=start,
             solver=ctx.solver,
             swarm_stride=1,
             weights=weights,
@@ -341,9 +338,22 @@ def _windowed_start(
             throw=False,
         )
         residual = (jnp.asarray(first.y) - jnp.asarray(fit.predicted)) * weights
-        mse = float(jnp.sum(residual**2))
+        return fit.model, float(jnp.sum(residual**2))
+
+    attempts = [(swarms[0], ctx.key, None)]
+    attempts += [(swarms[0], jax.random.fold_in(ctx.key, 1), None)]
+    attempts += [
+        (other, jax.random.fold_in(ctx.key, 1 + number), None)
+        for number, other in enumerate(swarms[1:], 1)
+    ]
+    attempts += [
+        (None, ctx.key, start) for start in ctx.family.base_starts(ctx.recording, first)
+    ]
+    best, best_mse = None, math.inf
+    for swarm, key, start in attempts:
+        model, mse = window_fit(swarm, key, start)
         if math.isfinite(mse) and mse < best_mse:
-            best, best_mse = fit.model, mse
+            best, best_mse = model, mse
     if best is None:
         raise ValueError(
             f"diagnose: the {ctx.family.base_name} base model's fit to the start of "
