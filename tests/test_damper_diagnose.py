@@ -16,7 +16,6 @@ import pytest
 
 import jaxhyst as jh
 from jaxhyst._cli import main
-from jaxhyst._diagnose._effects.base import RefitScales
 
 
 RATE = 3004.8  # the Dyke records' sample rate (Hz)
@@ -67,7 +66,6 @@ SWITCHED_ON = dict(
     legendre6=2.0,
     legendre7=-1.5,
     legendre8=1.0,
-    valve_width=0.3,
 )
 
 
@@ -80,7 +78,7 @@ def test_every_effect_off_is_the_fixed_field_damper():
         jh.simulate(extended, path, SOLVER), expected, rtol=0, atol=1e-9
     )
     # Shape parameters are inert while their effect's gains are zero.
-    inert = extended.replace(field_knee=3.0, valve_width=0.5)
+    inert = extended.replace(field_knee=3.0)
     np.testing.assert_allclose(
         jh.simulate(inert, path, SOLVER), expected, rtol=0, atol=1e-9
     )
@@ -193,41 +191,6 @@ def test_the_lagged_field_is_exact_per_sample_and_continuous_at_zero(lags):
         scale = float(jnp.max(jnp.abs(tangent)))
         assert scale > 0
         assert float(jnp.max(jnp.abs(difference - tangent))) < 1e-3 * scale
-
-
-def test_the_valving_switches_over_its_width():
-    path = _path()
-    model = jh.ExtendedDamper.around(_base(), path, 500.0)
-    xdot = jnp.linspace(-3.0, 3.0, 13)
-    abrupt = model.replace(damping_skew=0.3)
-    np.testing.assert_array_equal(jax.vmap(abrupt.valve_switch)(xdot), jnp.sign(xdot))
-    gradual = abrupt.replace(valve_width=0.5)
-    width = 0.5 * float(model.velocity_scale)
-    np.testing.assert_allclose(
-        jax.vmap(gradual.valve_switch)(xdot), xdot / np.sqrt(xdot**2 + width**2)
-    )
-
-    def force(w):
-        return jh.simulate(abrupt.replace(valve_width=w), path, SOLVER)
-
-    # Closing the band gives the abrupt switch back; at zero width the force does
-    # not move with it (the width enters squared), beyond zero it does.
-    at_zero = force(0.0)
-    assert float(jnp.max(jnp.abs(force(1e-6) - at_zero))) < 1e-3
-    _, still = jax.jvp(force, (jnp.asarray(0.0),), (jnp.asarray(1.0),))
-    assert float(jnp.max(jnp.abs(still))) == 0.0
-    _, slope = jax.jvp(force, (jnp.asarray(0.3),), (jnp.asarray(1.0),))
-    difference = (force(0.3 + 1e-5) - force(0.3 - 1e-5)) / 2e-5
-    np.testing.assert_allclose(slope, difference, rtol=1e-4, atol=1e-3)
-    assert float(jnp.max(jnp.abs(slope))) > 1.0
-    # So the score test reads skew and damping_skew only until the effect is in,
-    # and refits start from a grid of widths.
-    effect = jh.DamperAsymmetry()
-    assert effect.sensitivity_parameters(model) == ("skew", "damping_skew")
-    assert effect.sensitivity_parameters(abrupt) == effect.parameters
-    scales = RefitScales(RATE, 0.5, {})
-    starts = effect.starting_points(abrupt, {"skew": 0.0, "damping_skew": 0.1}, scales)
-    assert {0.1, 0.3, 1.0} <= {effect.values(m)["valve_width"] for m in starts}
 
 
 def test_the_extended_damper_is_spencers_where_their_forms_meet():

@@ -36,11 +36,8 @@ normalisers set by `around` from the record, not fitted):
   forth up to four times over the record; the constant is the base's f0);
 - asymmetry: compression and extension differ: gamma -> gamma +
   skew*(beta + gamma)*sign(z) (the hysteretic force saturates at different levels
-  on the two sides) and c0 -> c0*(1 + damping_skew*switch(xdot)) (the valving damps
-  one direction more), switch = sign(xdot) with valve_width = 0, else
-  xdot/sqrt(xdot^2 + (valve_width*velocity_scale)^2): the damping changes over a
-  band of velocities (a check valve that opens gradually, a bleed orifice) instead
-  of at once, velocity_scale being the record's RMS piston velocity.
+  on the two sides) and c0 -> c0*(1 + damping_skew*sign(xdot)) (the valving damps
+  one direction more).
 
 State: (z, u, w), the current u and the field w held over each sample interval and
 updated at its end (the RK4 stages inside it read them from the same solution).
@@ -121,12 +118,10 @@ class ExtendedDamper(AbstractHysteresisModel):
     legendre6: Float[Array, ""] = _field(0.0)
     legendre7: Float[Array, ""] = _field(0.0)
     legendre8: Float[Array, ""] = _field(0.0)
-    valve_width: Float[Array, ""] = _field(0.0)
     command_scale: Float[Array, ""] = _normaliser(1.0)
     damping_scale: Float[Array, ""] = _normaliser(1.0)
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
-    velocity_scale: Float[Array, ""] = _normaliser(1.0)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
 
     parameter_names: ClassVar[tuple[str, ...]] = (
@@ -147,7 +142,6 @@ class ExtendedDamper(AbstractHysteresisModel):
         "legendre6",
         "legendre7",
         "legendre8",
-        "valve_width",
     )
     state_size: ClassVar[int] = 3
     input_names: ClassVar[tuple[str, ...]] = ("displacement", "command")
@@ -163,8 +157,8 @@ class ExtendedDamper(AbstractHysteresisModel):
         normalised to `inputs` (displacement and command) and `output_scale` (a
         typical force, e.g. the record's RMS force): the field is measured in units
         of the record's peak |command|, the roll-off's compliance in units of
-        output_scale/rms(xdot) (a typical force per velocity), the valve's width in
-        rms(xdot), the time in half the record's duration about its middle."""
+        output_scale/rms(xdot) (a typical force per velocity), the time in half the
+        record's duration about its middle."""
         if not isinstance(base, (BoucWenDamper, ExtendedDamper)):
             raise TypeError(
                 "ExtendedDamper.around: base must be a BoucWenDamper or an "
@@ -192,7 +186,6 @@ class ExtendedDamper(AbstractHysteresisModel):
             / jnp.maximum(rms_velocity, 1e-30),
             time_center=(inputs.t0 + inputs.t1) / 2,
             time_scale=(inputs.t1 - inputs.t0) / 2,
-            velocity_scale=jnp.maximum(rms_velocity, 1e-30),
             smoothing=base.smoothing,
         )
 
@@ -266,18 +259,8 @@ class ExtendedDamper(AbstractHysteresisModel):
         strength = self.field_strength(w)
         alpha = self.alpha * (1 + self.field_alpha * strength)
         grows = 1 + self.field_damping * strength
-        c0 = self.c0 * (1 + self.damping_skew * self.valve_switch(xdot))
+        c0 = self.c0 * (1 + self.damping_skew * self.smoothing.sign(xdot))
         return alpha, c0, grows, self.rolloff / self.damping_scale
-
-    def valve_switch(self, xdot: Float[ArrayLike, ""]) -> Float[Array, ""]:
-        """How far the valving has switched at piston velocity xdot, from -1 to 1:
-        sign(xdot) (the smoothing's) with valve_width = 0, else
-        xdot/sqrt(xdot^2 + (valve_width*velocity_scale)^2)."""
-        xdot = jnp.asarray(xdot)
-        width = self.valve_width * self.velocity_scale
-        spread = jnp.sqrt(xdot**2 + width**2)
-        gradual = xdot / jnp.where(spread > 0, spread, 1.0)
-        return jnp.where(width != 0, gradual, self.smoothing.sign(xdot))
 
     def _gamma(self, z):
         return self.gamma + self.skew * (self.beta + self.gamma) * self.smoothing.sign(

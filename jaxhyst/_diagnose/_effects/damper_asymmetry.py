@@ -2,8 +2,6 @@
 
 from typing import ClassVar
 
-import numpy as np
-
 from .base import (
     MEAN_GAP,
     AbstractEffect,
@@ -16,22 +14,14 @@ from .base import (
 )
 
 
-# Valve widths tried as starting points, in RMS piston velocities: a valve that
-# switches within a tenth of the typical velocity to one that is never fully open.
-VALVE_WIDTHS = (0.1, 0.3, 1.0)
-
-
 class DamperAsymmetry(AbstractEffect):
     """`ExtendedDamper`'s skew (gamma -> gamma + skew*(beta + gamma)*sign(z): the
-    hysteretic force saturates at different levels on the two sides), damping_skew
-    (c0 -> c0*(1 + damping_skew*switch(xdot)): the viscous damping differs by
-    direction) and valve_width (the band of velocities over which the damping
-    switches sides, in RMS piston velocities; 0 switches at once, as sign(xdot))."""
+    hysteretic force saturates at different levels on the two sides) and
+    damping_skew (c0 -> c0*(1 + damping_skew*sign(xdot)): the viscous damping
+    differs by direction)."""
 
     name: ClassVar[str] = "asymmetry"
-    parameters: ClassVar[tuple[str, ...]] = ("skew", "damping_skew", "valve_width")
-    # Inert while damping_skew is zero.
-    shape_parameters: ClassVar[tuple[str, ...]] = ("valve_width",)
+    parameters: ClassVar[tuple[str, ...]] = ("skew", "damping_skew")
     meaning: ClassVar[str] = (
         "compression and extension differ (the piston rod's area on one side, "
         "valving or seals that resist one direction more)"
@@ -44,30 +34,7 @@ class DamperAsymmetry(AbstractEffect):
             return (-0.6, 0.6)
         if name == "damping_skew":
             return (-0.8, 0.8)
-        if name == "valve_width":
-            return (0.0, 2.0)
         return None
-
-    def sensitivity_parameters(self, model):
-        # At valve_width = 0 the force does not move with it (it enters squared):
-        # no column to score. Once the effect is in the model all three are free
-        # parameters and need their columns (the width's is zero while it is).
-        return self.parameters if self.is_on(model) else ("skew", "damping_skew")
-
-    def directions(self, columns, predicted, dt):
-        return np.stack([columns["skew"], columns["damping_skew"]], axis=1)
-
-    def starting_points(self, current, step, scales):
-        # The width has no first-order direction at zero: a grid of widths with
-        # the score step (whose damping_skew is the abrupt switch's).
-        models = super().starting_points(current, step, scales)
-        for width in VALVE_WIDTHS:
-            for scale in (1.0, 2.0):
-                moved = {
-                    p: float(getattr(current, p)) + scale * v for p, v in step.items()
-                }
-                models.append(current.replace(**moved, valve_width=width))
-        return models
 
     def evidence(self, where, model):
         up = where["positive_velocity"]["mean"]
@@ -94,7 +61,7 @@ class DamperAsymmetry(AbstractEffect):
         )
 
     def units(self, *, time, input, output):
-        return {"skew": "1", "damping_skew": "1", "valve_width": "1"}
+        return {"skew": "1", "damping_skew": "1"}
 
     def reading(self, values, errors, units):
         skew, damping = values["skew"], values["damping_skew"]
@@ -116,16 +83,5 @@ class DamperAsymmetry(AbstractEffect):
             f"{fitted(values, errors, units, 'skew')}); the viscous damping is "
             f"(1 + d)*c0 at positive velocity and (1 - d)*c0 at negative velocity "
             f"with d = damping_skew = {fitted(values, errors, units, 'damping_skew')} "
-            f"({more}), {_switch(values, errors, units)}"
+            f"({more})"
         )
-
-
-def _switch(values, errors, units) -> str:
-    """How the damping switches sides, in words."""
-    if values["valve_width"] == 0.0 or values["damping_skew"] == 0.0:
-        return "switching at once at zero velocity"
-    width = fitted(values, errors, units, "valve_width")
-    return (
-        f"switching gradually over a band of velocities (valve_width = {width} RMS "
-        "piston velocities: xdot/sqrt(xdot^2 + width^2) instead of sign(xdot))"
-    )
