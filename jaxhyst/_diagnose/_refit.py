@@ -227,9 +227,10 @@ class ActiveProblem(eqx.Module):
     def rmse(self, z):
         if self.basis is None:
             return self.problem.rmse(self.full(z))
+        residuals = self.residuals(z)
         weights = self.problem.weights
-        weight = self.residuals(z).size if weights is None else jnp.sum(weights**2)
-        squared = jnp.sum(self.residuals(z) ** 2)
+        weight = residuals.size if weights is None else jnp.sum(weights**2)
+        squared = jnp.sum(residuals**2)
         return self.problem.output_scale * jnp.sqrt(squared / weight)
 
     def solved(self, z) -> jax.Array:
