@@ -321,13 +321,14 @@ def _windowed_start(
     sample."""
     first = ctx.recording.segment(None, float(ctx.recording.t[window - 1]))
     weights = ctx.weights[: first.num_samples]
+    space = ctx.family.base_space(ctx.recording)
 
     def window_fit(swarm: MPSO | None, key, start) -> tuple[Any, float]:
         fit = identify(
             ctx.family.base_template(),
             first,
             key=key,
-            space=ctx.family.base_space(ctx.recording),
+            space=space,
             swarm=swarm,
             start=start,
             solver=ctx.solver,

@@ -147,14 +147,14 @@ def additive_names(
     catalogue's effects declare `additive`, where the space maps them linearly (no
     log scale, no floor), so that the output is affine in their coordinates."""
     declared = {p for effect in family.catalogue for p in effect.additive}
-    floor = np.asarray(space.floor)
-    return tuple(
-        n
-        for n in free
-        if n in declared
-        and not space.log_scale[space.names.index(n)]
-        and np.isneginf(floor[space.names.index(n)])
-    )
+    linear = {
+        name
+        for name, log, floor in zip(
+            space.names, space.log_scale, np.asarray(space.floor)
+        )
+        if not log and np.isneginf(floor)
+    }
+    return tuple(n for n in free if n in declared and n in linear)
 
 
 class ActiveProblem(eqx.Module):
