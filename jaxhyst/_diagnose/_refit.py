@@ -86,7 +86,16 @@ def refit(
     decimated copy when `settings.stride` > 1. With a `key` (and a swarm in the
     settings, and a model without fast linear parts), a short swarm over the same
     space first looks for a better basin: a large effect can pull the base
-    parameters far from where the base fit left them."""
+    parameters far from where the base fit left them. The gains of effects the
+    refit leaves off are held at zero meanwhile (`held_at_zero`): their terms are
+    not computed."""
+    idle = [
+        p
+        for effect in family.catalogue
+        for p in effect.gains
+        if p not in free and float(getattr(model, p)) == 0.0
+    ]
+    model = model.held_at_zero(idle)
     space = refit_space(family, model, free, scales)
     problem = Problem(space, inputs, measured, solver, weights)
     stride = settings.stride
@@ -137,7 +146,7 @@ def refit(
         polish = LevenbergMarquardtPolish(max_steps=settings.max_steps, min_gain=1e-5)
         # `ActiveProblem` offers the part of `Problem` a polish uses.
         z = polish.run(active, z).z  # pyright: ignore[reportArgumentType]
-    return model_at(space, active.solved(z))
+    return model_at(space, active.solved(z)).held_at_zero(())
 
 
 def additive_names(

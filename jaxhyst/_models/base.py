@@ -7,7 +7,7 @@ so the same model runs unchanged under the scan-RK4 simulator and under diffrax.
 
 import abc
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from typing import TYPE_CHECKING, ClassVar, Self
 
 import equinox as eqx
@@ -213,6 +213,14 @@ class AbstractHysteresisModel(eqx.Module):
         at its end.
         """
         return None
+
+    def held_at_zero(self, names: Collection[str]) -> Self:
+        """This model with the parameters `names` (each at zero) held there: the
+        terms they scale are left out of its equations at trace time, which makes a
+        simulation cheaper, and their derivatives are then zero. Models without
+        such terms return themselves (the default). `held_at_zero(())` computes
+        every term again. Refits hold the gains of the effects they leave off."""
+        return self
 
     def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> "SearchBox":
         """The default search box for a record with these `scales` (what

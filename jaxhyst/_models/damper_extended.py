@@ -43,6 +43,8 @@ State: (z, u, w), the current u and the field w held over each sample interval a
 updated at its end (the RK4 stages inside it read them from the same solution).
 """
 
+import dataclasses
+from collections.abc import Collection
 from typing import ClassVar
 
 import equinox as eqx
@@ -123,6 +125,10 @@ class ExtendedDamper(AbstractHysteresisModel):
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
+    # Gains held at zero (`held_at_zero`): the terms they scale are not computed.
+    zero_gains: frozenset[str] = eqx.field(
+        static=True, default=frozenset(), kw_only=True
+    )
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         *BoucWenDamper.parameter_names,
@@ -189,6 +195,37 @@ class ExtendedDamper(AbstractHysteresisModel):
             smoothing=base.smoothing,
         )
 
+    def held_at_zero(self, names: Collection[str]) -> "ExtendedDamper":
+        """This model with the gains `names` (each at zero) held there: the terms
+        they scale leave the equations at trace time. With both lags held the field
+        is the command (no per-stage exponentials: most of a forward pass's cost);
+        with field_alpha and field_damping held no field is computed at all, and
+        with rolloff held no internal dashpot. `replace` releases what it sets."""
+        names = frozenset(names)
+        unknown = sorted(names - set(self.parameter_names))
+        if unknown:
+            raise ValueError(
+                f"ExtendedDamper.held_at_zero: unknown parameter(s) {unknown}; "
+                f"this model has {list(self.parameter_names)}."
+            )
+        nonzero = sorted(n for n in names if float(getattr(self, n)) != 0.0)
+        if nonzero:
+            raise ValueError(
+                f"ExtendedDamper.held_at_zero: {nonzero} are not zero; set them to "
+                "0 first (model.replace(...)), or hold only the zero ones."
+            )
+        return dataclasses.replace(self, zero_gains=names)
+
+    def replace(self, **values: ArrayLike) -> "ExtendedDamper":
+        replaced = super().replace(**values)
+        released = replaced.zero_gains - set(values)
+        if released == replaced.zero_gains:
+            return replaced
+        return dataclasses.replace(replaced, zero_gains=released)
+
+    def _holds(self, *names: str) -> bool:
+        return all(name in self.zero_gains for name in names)
+
     def base(self) -> BoucWenDamper:
         """The base damper (every effect off) with this model's base parameters."""
         values = {name: getattr(self, name) for name in BoucWenDamper.parameter_names}
@@ -239,6 +276,8 @@ class ExtendedDamper(AbstractHysteresisModel):
         (`current`, `field`) with the command at v_start, for a command that is
         linear inside the interval (now v, with rate vdot). The field's input, the
         current, is taken as moving at its mean rate since the interval's start."""
+        if self._holds("command_lag", "field_lag"):
+            return v, v
         now = self._first_order(current, v_start, v, vdot, elapsed, self.command_lag)
         rate = (now - current) / jnp.maximum(elapsed, self._time_floor())
         return now, self._first_order(
@@ -256,13 +295,30 @@ class ExtendedDamper(AbstractHysteresisModel):
         """(alpha, c0 without the field's growth, that growth, r = rolloff/
         damping_scale) at field w and piston velocity xdot: the internal dashpot is
         c1 = growth/r, so c0/c1 = r*c0 whatever the field."""
-        strength = self.field_strength(w)
-        alpha = self.alpha * (1 + self.field_alpha * strength)
-        grows = 1 + self.field_damping * strength
-        c0 = self.c0 * (1 + self.damping_skew * self.smoothing.sign(xdot))
-        return alpha, c0, grows, self.rolloff / self.damping_scale
+        if self._holds("field_alpha", "field_damping"):
+            alpha, grows = self.alpha, None
+        else:
+            strength = self.field_strength(w)
+            alpha = self.alpha * (1 + self.field_alpha * strength)
+            grows = 1 + self.field_damping * strength
+        c0 = self.c0
+        if not self._holds("damping_skew"):
+            c0 = c0 * (1 + self.damping_skew * self.smoothing.sign(xdot))
+        r = None if self._holds("rolloff") else self.rolloff / self.damping_scale
+        return alpha, c0, grows, r
+
+    def _field_at(self, state, drive: LaggedCommandDrive):
+        """The field at a stage inside the sample interval (None when no term reads
+        it)."""
+        if self._holds("field_alpha", "field_damping"):
+            return None
+        return self._lagged(
+            state[1], state[2], drive.v_start, drive.v, drive.vdot, drive.elapsed
+        )[1]
 
     def _gamma(self, z):
+        if self._holds("skew"):
+            return self.gamma
         return self.gamma + self.skew * (self.beta + self.gamma) * self.smoothing.sign(
             z
         )
@@ -270,16 +326,17 @@ class ExtendedDamper(AbstractHysteresisModel):
     # The drive is the one this model's `drive` returns.
     def vector_field(self, t, state, drive: LaggedCommandDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
         z, xdot = state[0], drive.udot
-        _, w = self._lagged(
-            state[1], state[2], drive.v_start, drive.v, drive.vdot, drive.elapsed
-        )
-        alpha, c0, grows, r = self._coefficients(w, xdot)
+        alpha, c0, grows, r = self._coefficients(self._field_at(state, drive), xdot)
         # ydot = (alpha*z + c0*grows*xdot)/(c0*grows + c1), c1 = grows/r.
-        ydot = r * (alpha * z / grows + c0 * xdot) / (1 + r * c0)
+        if r is None:
+            relative = xdot
+        else:
+            per_growth = alpha * z if grows is None else alpha * z / grows
+            relative = xdot - r * (per_growth + c0 * xdot) / (1 + r * c0)
         zdot = hysteretic_rate(
             self.smoothing,
             z,
-            xdot - ydot,
+            relative,
             self.A,
             self.beta,
             self._gamma(z),
@@ -315,12 +372,16 @@ class ExtendedDamper(AbstractHysteresisModel):
         # The block (Bouc-Wen element beside c0) transmits c1*ydot =
         # (alpha*z + c0*xdot)/(1 + c0/c1); summed in `BoucWenDamper.output`'s order,
         # so that with every effect off the sums round alike.
-        share = 1 / (1 + r * c0)
+        viscous = c0 * xdot if grows is None else c0 * grows * xdot
+        hysteretic = alpha * state[0]
+        if r is not None:
+            share = 1 / (1 + r * c0)
+            viscous, hysteretic = viscous * share, hysteretic * share
         s = (t - self.time_center) / self.time_scale
         return (
-            c0 * grows * xdot * share
+            viscous
             + self.k0 * (drive.u - self.x0)
-            + alpha * state[0] * share
+            + hysteretic
             + self.f0
             + legendre_drift(
                 s,
