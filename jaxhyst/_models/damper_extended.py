@@ -45,7 +45,7 @@ updated at its end (the RK4 stages inside it read them from the same solution).
 
 import dataclasses
 from collections.abc import Collection
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -182,7 +182,7 @@ class ExtendedDamper(AbstractHysteresisModel):
         velocity = jnp.diff(x, axis=-1) / inputs.dt
         peak = jnp.max(jnp.abs(command))
         rms_velocity = jnp.sqrt(jnp.mean(velocity**2))
-        values = {
+        values: dict[str, Any] = {
             name: base.parameters()[name] for name in BoucWenDamper.parameter_names
         }
         return cls(
