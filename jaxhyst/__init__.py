@@ -135,6 +135,7 @@ from ._model_files import (
     save_model as save_model,
 )
 from ._models.base import (
+    AbstractGainHoldingModel as AbstractGainHoldingModel,
     AbstractHysteresisModel as AbstractHysteresisModel,
     BoucWenShape as BoucWenShape,
     DataScales as DataScales,

@@ -193,6 +193,12 @@ def checksum(data: Mapping[str, Any]) -> str:
     return "sha256:" + hashlib.sha256(canonical(rest).encode("utf-8")).hexdigest()
 
 
+# Fields a model file does not list: the smoothing has its own block, and the gains a
+# refit holds at zero (`held_at_zero`) are a way of computing, not part of the model
+# (a loaded model holds nothing).
+_NOT_FIELDS = ("smoothing", "zero_gains")
+
+
 def model_file_dict(
     model: AbstractHysteresisModel,
     *,
@@ -235,7 +241,7 @@ def model_file_dict(
             getattr(model, field.name), f"{cls.__name__}.{field.name}"
         )
         for field in dataclasses.fields(model)
-        if field.name not in names and field.name != "smoothing"
+        if field.name not in names and field.name not in _NOT_FIELDS
     }
     data: dict[str, Any] = {
         "format": FORMAT,
@@ -487,7 +493,7 @@ def _model(block: Any, owner: str) -> AbstractHysteresisModel:
     other = {
         f.name: f
         for f in dataclasses.fields(cls)
-        if f.name not in cls.parameter_names and f.name != "smoothing"
+        if f.name not in cls.parameter_names and f.name not in _NOT_FIELDS
     }
     _names_check(owner, "field(s)", fields, tuple(other))
     values: dict[str, Any] = {k: float(v) for k, v in parameters.items()}

@@ -112,52 +112,6 @@ def test_every_effect_off_is_the_fixed_field_damper():
         )
 
 
-def test_gains_held_at_zero_leave_the_force_and_its_other_slopes_unchanged():
-    # A refit holds the gains of the effects it leaves off (`held_at_zero`): their
-    # terms leave the equations, and nothing else may move.
-    path = _path()
-    on = jh.ExtendedDamper.around(_base(), path, 500.0).replace(
-        field_alpha=3.0, field_damping=0.4, skew=0.2, trend=20.0
-    )
-    idle = ("command_lag", "field_lag", "rolloff", "damping_skew")
-    held = on.held_at_zero(idle)
-    assert held.zero_gains == frozenset(idle)
-    np.testing.assert_array_equal(
-        jh.simulate(held, path, SOLVER), jh.simulate(on, path, SOLVER)
-    )
-
-    def slope(model, name):
-        # The output's derivative by one parameter (set in place, so that the hold
-        # stays), by forward mode.
-        def force(value):
-            moved = eqx.tree_at(lambda m: getattr(m, name), model, value)
-            return jh.simulate(moved, path, SOLVER)
-
-        return jax.jvp(force, (getattr(model, name),), (jnp.ones(()),))[1]
-
-    for name in ("alpha", "c0", "field_alpha", "field_knee", "skew", "trend"):
-        np.testing.assert_allclose(
-            slope(held, name), slope(on, name), rtol=1e-10, atol=1e-8
-        )
-    for name in idle:
-        assert float(jnp.max(jnp.abs(slope(on, name)))) > 1.0, name
-        np.testing.assert_array_equal(slope(held, name), 0.0)
-    # `replace` releases what it sets; the full model again once nothing is held.
-    assert held.replace(rolloff=0.1).zero_gains == frozenset(idle) - {"rolloff"}
-    np.testing.assert_array_equal(
-        jh.simulate(held.replace(rolloff=0.1), path, SOLVER),
-        jh.simulate(on.replace(rolloff=0.1), path, SOLVER),
-    )
-    assert held.held_at_zero(()).zero_gains == frozenset()
-    with pytest.raises(ValueError, match=r"\['skew'\] are not zero"):
-        on.held_at_zero(["skew"])
-    with pytest.raises(ValueError, match="unknown parameter"):
-        on.held_at_zero(["rolloff_gain"])
-    # Models without such terms return themselves.
-    base = _base()
-    assert base.held_at_zero(["f0"]) is base
-
-
 def test_the_offset_s_terms_are_legendre_polynomials_of_degree_1_to_8():
     # A zero that goes back and forth: each term adds its Legendre polynomial of
     # the time scaled to [-1, 1] (curvature's is s^2 - 1/3 = 2/3 P2), and the eight

@@ -180,6 +180,19 @@ def test_round_trip_is_exact(name, tmp_path):
     assert loaded.jaxhyst_version == jh.__version__
 
 
+def test_gains_held_by_a_refit_are_not_part_of_the_file(tmp_path):
+    # `held_at_zero` is a way of computing: the file lists the model's fields only,
+    # and the loaded model computes every term again.
+    model = _every_model()["ExtendedDamper"].replace(legendre4=0.0)
+    held = model.held_at_zero(["legendre4", "legendre5", "field_lag"])
+    file = jh.save_model(held, tmp_path / "held.json")
+    assert "zero_gains" not in json.loads(file.read_text())["model"]["fields"]
+    loaded = jh.load_model(file).model
+    assert isinstance(loaded, jh.ExtendedDamper)
+    assert loaded.zero_gains == frozenset()
+    assert eqx.tree_equal(loaded, held.held_at_zero(()))
+
+
 def test_file_format_is_documented_json(tmp_path):
     file = jh.save_model(
         _PAPER, tmp_path / "m.json", family="piezo", effects=("creep", "drift")

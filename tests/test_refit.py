@@ -13,6 +13,7 @@ from jaxhyst._diagnose._refit import (
     ActiveProblem,
     RefitSettings,
     additive_names,
+    fitted_names,
     refit,
     refit_space,
 )
@@ -208,3 +209,62 @@ def test_an_effect_in_the_model_has_a_column_for_every_parameter(which):
         on = off.replace(**dict.fromkeys(effect.gains, 0.1))
         assert effect.is_on(on), effect.name
         assert set(effect.sensitivity_parameters(on)) == set(effect.parameters)
+
+
+@pytest.mark.parametrize("which", ["structural", "damper", "piezo"])
+def test_gains_held_at_zero_leave_the_output_and_the_other_slopes_unchanged(which):
+    # A refit holds the gains of the effects it leaves off (`held_at_zero`): their
+    # terms leave the equations, and nothing else may move.
+    family, off, on, path = {
+        "structural": _structural,
+        "damper": _damper,
+        "piezo": _piezo,
+    }[which]()
+    if which == "structural":
+        path = jh.Recording.quasi_static(path, path).input_path()
+    solver = jh.RK4(substeps=2)
+    for model in (off, on):
+        idle = [
+            p
+            for effect in family.catalogue
+            for p in effect.gains
+            if float(getattr(model, p)) == 0.0
+        ]
+        assert idle
+        held = model.held_at_zero(idle)
+        assert held.zero_gains == frozenset(idle)
+        # Equal up to how the compiler contracts the remaining products.
+        np.testing.assert_allclose(
+            jh.simulate(held, path, solver),
+            jh.simulate(model, path, solver),
+            rtol=1e-13,
+            atol=1e-13,
+        )
+        names = fitted_names(family, model)
+        moving = [names.index(n) for n in names if n not in idle]
+        still = [names.index(n) for n in idle]
+        slopes = np.asarray(_sensitivities(model, names, path, solver))
+        held_slopes = np.asarray(_sensitivities(held, names, path, solver))
+        np.testing.assert_allclose(
+            held_slopes[:, moving],
+            slopes[:, moving],
+            rtol=1e-10,
+            atol=1e-10 * float(np.max(np.abs(slopes))),
+        )
+        # A held gain has no slope: its terms are not there.
+        assert np.max(np.abs(slopes[:, still])) > 0
+        np.testing.assert_array_equal(held_slopes[:, still], 0.0)
+    # `replace` releases what it sets; nothing held computes every term again.
+    held = off.held_at_zero(idle)
+    name = idle[0]
+    assert held.replace(**{name: 0.1}).zero_gains == frozenset(idle) - {name}
+    assert held.held_at_zero(()).zero_gains == frozenset()
+    with pytest.raises(ValueError, match="are not zero"):
+        on.held_at_zero([n for n in names if float(getattr(on, n)) != 0.0][:1])
+    with pytest.raises(ValueError, match="unknown parameter"):
+        on.held_at_zero(["no_such_gain"])
+
+
+def test_a_model_without_effect_terms_holds_nothing():
+    base = jh.BoucWenDamper(25.0, 12.0, 0.1, 9e3, -15.0, 1.0, 0.7, 0.3, 1.5)
+    assert base.held_at_zero(["f0"]) is base

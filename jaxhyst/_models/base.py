@@ -6,6 +6,7 @@ so the same model runs unchanged under the scan-RK4 simulator and under diffrax.
 """
 
 import abc
+import dataclasses
 import math
 from collections.abc import Callable, Collection, Iterator
 from typing import TYPE_CHECKING, ClassVar, Self
@@ -275,6 +276,53 @@ def _float_bounds(
     bounds: dict[str, tuple[float, float]],
 ) -> dict[str, tuple[float, float]]:
     return {name: (float(lo), float(hi)) for name, (lo, hi) in bounds.items()}
+
+
+class AbstractGainHoldingModel(AbstractHysteresisModel):
+    """A model with effect terms it can leave out of its equations at trace time:
+    the gains in `zero_gains` (static; empty by default) are held at zero, and the
+    equations skip what they scale (`_holds`). Refits hold the gains of the effects
+    they leave off, which makes every simulation of the refit cheaper."""
+
+    if TYPE_CHECKING:
+        zero_gains: ClassVar[frozenset[str]]
+    else:
+        zero_gains: eqx.AbstractVar[frozenset[str]]
+
+    def held_at_zero(self, names: Collection[str]) -> Self:
+        names = frozenset(names)
+        name = type(self).__name__
+        unknown = sorted(names - set(self.parameter_names))
+        if unknown:
+            raise ValueError(
+                f"{name}.held_at_zero: unknown parameter(s) {unknown}; this model "
+                f"has {list(self.parameter_names)}."
+            )
+        nonzero = sorted(n for n in names if float(getattr(self, n)) != 0.0)
+        if nonzero:
+            raise ValueError(
+                f"{name}.held_at_zero: {nonzero} are not zero; set them to 0 first "
+                "(model.replace(...)), or hold only the zero ones."
+            )
+        return dataclasses.replace(self, zero_gains=names)
+
+    def replace(self, **values: ArrayLike) -> Self:
+        """A copy with some parameters replaced; a held gain that is set is released
+        (its terms are computed again)."""
+        replaced = super().replace(**values)
+        released = replaced.zero_gains - set(values)
+        if released == replaced.zero_gains:
+            return replaced
+        return dataclasses.replace(replaced, zero_gains=released)
+
+    def _gain(self, name: str):
+        """The gain `name`, or a literal 0 where it is held (nothing then depends on
+        it): for terms cheap enough to compute either way."""
+        return 0.0 if name in self.zero_gains else getattr(self, name)
+
+    def _holds(self, *names: str) -> bool:
+        """Whether every one of `names` is held at zero (its terms left out)."""
+        return all(name in self.zero_gains for name in names)
 
 
 class SearchBox(eqx.Module):

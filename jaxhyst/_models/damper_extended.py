@@ -43,8 +43,6 @@ State: (z, u, w), the current u and the field w held over each sample interval a
 updated at its end (the RK4 stages inside it read them from the same solution).
 """
 
-import dataclasses
-from collections.abc import Collection
 from typing import Any, ClassVar
 
 import equinox as eqx
@@ -55,6 +53,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
+    AbstractGainHoldingModel,
     AbstractHysteresisModel,
     BoucWenShape,
     as_parameter,
@@ -80,6 +79,19 @@ def _normaliser(default: float):
     return eqx.field(converter=as_parameter, default=default, kw_only=True)
 
 
+# The offset's Legendre terms, degree 1 to 8.
+_DRIFT = (
+    "trend",
+    "curvature",
+    "wander",
+    "legendre4",
+    "legendre5",
+    "legendre6",
+    "legendre7",
+    "legendre8",
+)
+
+
 class LaggedCommandDrive(DamperDrive):
     """`DamperDrive` plus where in its sample interval it is read: the command at
     the interval's start (`v_start`) and the time since it (`elapsed`), from which
@@ -89,7 +101,7 @@ class LaggedCommandDrive(DamperDrive):
     elapsed: Float[Array, ""]
 
 
-class ExtendedDamper(AbstractHysteresisModel):
+class ExtendedDamper(AbstractGainHoldingModel):
     """`BoucWenDamper` plus the damper family's effects (all off at zero): field
     dependence, driver lag, roll-off, offset drift and asymmetry. Reads the
     displacement and the command (`input_names`). See the module docstring for the
@@ -125,7 +137,10 @@ class ExtendedDamper(AbstractHysteresisModel):
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
-    # Gains held at zero (`held_at_zero`): the terms they scale are not computed.
+    # Gains held at zero (`held_at_zero`): with both lags held the field is the
+    # command (no per-stage exponentials: most of a forward pass's cost); with
+    # field_alpha and field_damping held no field is computed at all, and with
+    # rolloff held no internal dashpot.
     zero_gains: frozenset[str] = eqx.field(
         static=True, default=frozenset(), kw_only=True
     )
@@ -195,37 +210,6 @@ class ExtendedDamper(AbstractHysteresisModel):
             smoothing=base.smoothing,
         )
 
-    def held_at_zero(self, names: Collection[str]) -> "ExtendedDamper":
-        """This model with the gains `names` (each at zero) held there: the terms
-        they scale leave the equations at trace time. With both lags held the field
-        is the command (no per-stage exponentials: most of a forward pass's cost);
-        with field_alpha and field_damping held no field is computed at all, and
-        with rolloff held no internal dashpot. `replace` releases what it sets."""
-        names = frozenset(names)
-        unknown = sorted(names - set(self.parameter_names))
-        if unknown:
-            raise ValueError(
-                f"ExtendedDamper.held_at_zero: unknown parameter(s) {unknown}; "
-                f"this model has {list(self.parameter_names)}."
-            )
-        nonzero = sorted(n for n in names if float(getattr(self, n)) != 0.0)
-        if nonzero:
-            raise ValueError(
-                f"ExtendedDamper.held_at_zero: {nonzero} are not zero; set them to "
-                "0 first (model.replace(...)), or hold only the zero ones."
-            )
-        return dataclasses.replace(self, zero_gains=names)
-
-    def replace(self, **values: ArrayLike) -> "ExtendedDamper":
-        replaced = super().replace(**values)
-        released = replaced.zero_gains - set(values)
-        if released == replaced.zero_gains:
-            return replaced
-        return dataclasses.replace(replaced, zero_gains=released)
-
-    def _holds(self, *names: str) -> bool:
-        return all(name in self.zero_gains for name in names)
-
     def base(self) -> BoucWenDamper:
         """The base damper (every effect off) with this model's base parameters."""
         values = {name: getattr(self, name) for name in BoucWenDamper.parameter_names}
@@ -278,11 +262,10 @@ class ExtendedDamper(AbstractHysteresisModel):
         current, is taken as moving at its mean rate since the interval's start."""
         if self._holds("command_lag", "field_lag"):
             return v, v
-        now = self._first_order(current, v_start, v, vdot, elapsed, self.command_lag)
+        command_lag, field_lag = self._gain("command_lag"), self._gain("field_lag")
+        now = self._first_order(current, v_start, v, vdot, elapsed, command_lag)
         rate = (now - current) / jnp.maximum(elapsed, self._time_floor())
-        return now, self._first_order(
-            field, current, now, rate, elapsed, self.field_lag
-        )
+        return now, self._first_order(field, current, now, rate, elapsed, field_lag)
 
     def field_strength(self, w: Float[ArrayLike, ""]) -> Float[Array, ""]:
         """s = q/(1 + field_knee*q), q = |w|/command_scale: the field's effect at
@@ -299,8 +282,12 @@ class ExtendedDamper(AbstractHysteresisModel):
             alpha, grows = self.alpha, None
         else:
             strength = self.field_strength(w)
-            alpha = self.alpha * (1 + self.field_alpha * strength)
-            grows = 1 + self.field_damping * strength
+            alpha = self.alpha
+            if not self._holds("field_alpha"):
+                alpha = alpha * (1 + self.field_alpha * strength)
+            grows = None
+            if not self._holds("field_damping"):
+                grows = 1 + self.field_damping * strength
         c0 = self.c0
         if not self._holds("damping_skew"):
             c0 = c0 * (1 + self.damping_skew * self.smoothing.sign(xdot))
@@ -383,17 +370,7 @@ class ExtendedDamper(AbstractHysteresisModel):
             + self.k0 * (drive.u - self.x0)
             + hysteretic
             + self.f0
-            + legendre_drift(
-                s,
-                self.trend,
-                self.curvature,
-                self.wander,
-                self.legendre4,
-                self.legendre5,
-                self.legendre6,
-                self.legendre7,
-                self.legendre8,
-            )
+            + legendre_drift(s, *(self._gain(name) for name in _DRIFT))
         )
 
     def initial_state(self, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]

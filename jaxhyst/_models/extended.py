@@ -6,6 +6,8 @@ by freeing their parameters; `dynamic=True` adds the stage's inertia and damping
 """
 
 import dataclasses
+import functools
+import operator
 from typing import Any, ClassVar
 
 import equinox as eqx
@@ -17,6 +19,7 @@ from jaxtyping import Array, Float
 from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
+    AbstractGainHoldingModel,
     AbstractHysteresisModel,
     BoucWenShape,
     as_parameter,
@@ -29,9 +32,10 @@ from .bouc_wen import PiezoBoucWen, ShiftedDrive
 
 # Where the creep modes (fastest first, as in `creep_times`) live in the state.
 _CREEP_STATES = (8, 1, 2, 3)
+_CREEP_GAINS = ("creep_faster", "creep_fast", "creep_slow", "creep_slower")
 
 
-class ExtendedPiezo(AbstractHysteresisModel):
+class ExtendedPiezo(AbstractGainHoldingModel):
     """`PiezoBoucWen` plus the catalogue's effects (all off at zero):
 
     - asymmetry:       hdot += eps*u*sign(udot)  (the paper's Delta_Phi);
@@ -112,6 +116,12 @@ class ExtendedPiezo(AbstractHysteresisModel):
     )
     dynamic: bool = eqx.field(default=False, static=True, kw_only=True)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
+    # Gains held at zero (`held_at_zero`): their terms, and the states only they
+    # read, are not computed (the shifted input with phi held, the log of the rate
+    # with rate_amplitude held, each creep mode with its gain held, ...).
+    zero_gains: frozenset[str] = eqx.field(
+        static=True, default=frozenset(), kw_only=True
+    )
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k1",
@@ -192,6 +202,8 @@ class ExtendedPiezo(AbstractHysteresisModel):
 
     def drive(self, path, t, interval=None, frac=None) -> ShiftedDrive:
         u, udot = read_input(path, t, interval, frac)
+        if self._holds("phi"):
+            return ShiftedDrive(u, udot, u, udot)
         if interval is None or frac is None:
             v, vdot = path.evaluate(t + self.phi)
         else:
@@ -199,48 +211,65 @@ class ExtendedPiezo(AbstractHysteresisModel):
         return ShiftedDrive(u, udot, v, vdot)
 
     def _static_output(self, t, state, drive):
-        h, c_fast, c_slow, c_slower = state[0], state[1], state[2], state[3]
         u = drive.u
         centred = (u - self.input_center) / self.input_scale
         # Static terms vanish at zero input, so they add no offset (that is drift).
         at_rest = -self.input_center / self.input_scale
-        return (
-            self.k1 * u
-            + self.k2 * h
-            + self.quad * (centred**2 - at_rest**2)
-            + self.cubic * (centred**3 - at_rest**3)
-            + self.viscous * (u - state[6]) / (self.viscous_time * self.rate_scale)
-            + self.creep_faster * (state[8] - u)
-            + self.creep_fast * (c_fast - u)
-            + self.creep_slow * (c_slow - u)
-            + self.creep_slower * (c_slower - u)
-        )
+        terms = [self.k1 * u, self.k2 * state[0]]
+        if not self._holds("quad"):
+            terms.append(self.quad * (centred**2 - at_rest**2))
+        if not self._holds("cubic"):
+            terms.append(self.cubic * (centred**3 - at_rest**3))
+        if not self._holds("viscous"):
+            rate = (u - state[6]) / (self.viscous_time * self.rate_scale)
+            terms.append(self.viscous * rate)
+        for gain, i in zip(_CREEP_GAINS, _CREEP_STATES, strict=True):
+            if not self._holds(gain):
+                terms.append(getattr(self, gain) * (state[i] - u))
+        return functools.reduce(operator.add, terms)
 
     def drift(self, t):
         """The output's drift at time `t` (the Legendre terms), added after the
         stage."""
         s = (t - self.time_center) / self.time_scale
-        return self.offset + legendre_drift(s, self.trend, self.curvature, self.wander)
+        terms = (self._gain(name) for name in ("trend", "curvature", "wander"))
+        return self._gain("offset") + legendre_drift(s, *terms)
 
     # The drive is the one this model's `drive` returns.
     def vector_field(self, t, state, drive: ShiftedDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
         s = self.smoothing
         h = state[0]
-        gamma = self.gamma1 + self.skew * s.sign(h)
+        zero = jnp.zeros_like(h)
+        gamma = self.gamma1
+        if not self._holds("skew"):
+            gamma = gamma + self.skew * s.sign(h)
         relative_rate = s.abs(drive.udot) / self.rate_scale
-        amplitude = self.A1 * (1 + self.rate_amplitude * jnp.log1p(relative_rate))
-        input_rate = (drive.v - state[7]) / self.input_time
-        seen_rate = drive.vdot + self.input_lead * (drive.vdot - input_rate)
+        amplitude = self.A1
+        if not self._holds("rate_amplitude"):
+            amplitude = amplitude * (1 + self.rate_amplitude * jnp.log1p(relative_rate))
+        if self._holds("input_lead"):
+            # x only shapes the network, which is then a wire.
+            input_rate, seen_rate = zero, drive.vdot
+        else:
+            input_rate = (drive.v - state[7]) / self.input_time
+            seen_rate = drive.vdot + self.input_lead * (drive.vdot - input_rate)
         hdot = hysteretic_rate(s, h, seen_rate, amplitude, self.beta1, gamma, self.n)
-        hdot = hdot * (1 + self.rate_gain * relative_rate)
-        hdot = hdot + self.eps * drive.u * s.sign(drive.udot)
+        if not self._holds("rate_gain"):
+            hdot = hdot * (1 + self.rate_gain * relative_rate)
+        if not self._holds("eps"):
+            hdot = hdot + self.eps * drive.u * s.sign(drive.udot)
+        # A creep mode (or the viscous element) whose gain is held is not read: its
+        # state rests where it started.
         faster, fast, slow, slower = (
-            (drive.u - state[i]) / tau
-            for i, tau in zip(_CREEP_STATES, self.creep_times, strict=True)
+            zero if self._holds(gain) else (drive.u - state[i]) / tau
+            for gain, i, tau in zip(
+                _CREEP_GAINS, _CREEP_STATES, self.creep_times, strict=True
+            )
+        )
+        viscous_rate = (
+            zero if self._holds("viscous") else (drive.u - state[6]) / self.viscous_time
         )
         # The stage (y, yd) is propagated exactly per sample in `sample_update`.
-        zero = jnp.zeros_like(h)
-        viscous_rate = (drive.u - state[6]) / self.viscous_time
         return jnp.stack(
             [hdot, fast, slow, slower, zero, zero, viscous_rate, input_rate, faster]
         )

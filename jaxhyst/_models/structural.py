@@ -37,6 +37,7 @@ from jaxtyping import Array, Float
 from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
+    AbstractGainHoldingModel,
     AbstractHysteresisModel,
     BoucWenShape,
     as_parameter,
@@ -53,7 +54,7 @@ def _normaliser(default: float):
     return eqx.field(converter=as_parameter, default=default, kw_only=True)
 
 
-class StructuralBoucWen(AbstractHysteresisModel):
+class StructuralBoucWen(AbstractGainHoldingModel):
     """Bouc-Wen restoring force with degradation, pinching, asymmetry and drift (all
     off at zero): F = alpha*k*x + (1 - alpha)*k*z (+ effects), z the hysteretic
     displacement. See the module docstring for each effect's equations."""
@@ -82,6 +83,12 @@ class StructuralBoucWen(AbstractHysteresisModel):
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
+    # Gains held at zero (`held_at_zero`): with pinch held no pinching (two
+    # exponentials and a power per stage) is computed; with it and both degradation
+    # rates held, no energy either.
+    zero_gains: frozenset[str] = eqx.field(
+        static=True, default=frozenset(), kw_only=True
+    )
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k",
@@ -167,22 +174,27 @@ class StructuralBoucWen(AbstractHysteresisModel):
         s = self.smoothing
         z, energy = state[0], state[1]
         xdot = drive.udot
-        nu = jnp.maximum(1 + self.strength_degradation * energy, 1e-2)
-        eta = jnp.maximum(1 + self.stiffness_degradation * energy, 1e-2)
-        side = 1 + self.yield_skew * s.sign(z)
-        shape = (
-            (self.beta * s.sign(xdot) * s.sign(z) + self.gamma)
-            * side
-            * s.abs_pow(z, self.n)
-        )
-        phi = self.A - nu * shape
-        zu = self.saturation()
-        zeta1 = self.pinch * (1 - jnp.exp(-self.pinch_rate * energy))
-        zeta2 = self.pinch_width * zu * (self.pinch_lambda + zeta1)
-        zeta2 = jnp.where(jnp.abs(zeta2) > 1e-30, zeta2, 1e-30)
-        distance = (z * s.sign(xdot) - self.pinch_shift * zu) / zeta2
-        pinching = 1 - zeta1 * jnp.exp(-(distance**2))
-        zdot = pinching * phi * xdot / eta
+        # Each held gain drops a factor of exactly 1 (the rest in the same order).
+        shape = self.beta * s.sign(xdot) * s.sign(z) + self.gamma
+        if not self._holds("yield_skew"):
+            shape = shape * (1 + self.yield_skew * s.sign(z))
+        shape = shape * s.abs_pow(z, self.n)
+        if not self._holds("strength_degradation"):
+            shape = jnp.maximum(1 + self.strength_degradation * energy, 1e-2) * shape
+        zdot = self.A - shape
+        if not self._holds("pinch"):
+            zu = self.saturation()
+            zeta1 = self.pinch * (1 - jnp.exp(-self.pinch_rate * energy))
+            zeta2 = self.pinch_width * zu * (self.pinch_lambda + zeta1)
+            zeta2 = jnp.where(jnp.abs(zeta2) > 1e-30, zeta2, 1e-30)
+            distance = (z * s.sign(xdot) - self.pinch_shift * zu) / zeta2
+            zdot = (1 - zeta1 * jnp.exp(-(distance**2))) * zdot
+        zdot = zdot * xdot
+        if not self._holds("stiffness_degradation"):
+            zdot = zdot / jnp.maximum(1 + self.stiffness_degradation * energy, 1e-2)
+        if self._holds("strength_degradation", "stiffness_degradation", "pinch"):
+            # Nothing reads the dissipated energy.
+            return jnp.stack([zdot, jnp.zeros_like(zdot)])
         edot = (1 - self.alpha) * self.k * z * xdot / self.energy_scale
         return jnp.stack([zdot, edot])
 
@@ -190,8 +202,12 @@ class StructuralBoucWen(AbstractHysteresisModel):
         s = (t - self.time_center) / self.time_scale
         x = drive.u
         return (
-            self.alpha * self.k * (x + self.stiffness_skew * self.smoothing.abs(x))
+            self.alpha
+            * self.k
+            * (x + self._gain("stiffness_skew") * self.smoothing.abs(x))
             + (1 - self.alpha) * self.k * state[0]
-            + self.offset
-            + legendre_drift(s, self.trend, self.curvature, self.wander)
+            + self._gain("offset")
+            + legendre_drift(
+                s, *(self._gain(n) for n in ("trend", "curvature", "wander"))
+            )
         )
