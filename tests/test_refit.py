@@ -61,6 +61,14 @@ def _piezo():
     return jh.PiezoFamily(), model, model.replace(**on), path
 
 
+def _case(which):
+    """(family, model with every effect off, with some on, input path)."""
+    if which == "structural":
+        family, off, on, x = _structural()
+        return family, off, on, jh.Recording.quasi_static(x, x).input_path()
+    return {"damper": _damper, "piezo": _piezo}[which]()
+
+
 def _sensitivities(model, names, path, solver):
     """The output's derivative in each of `names` at `model`."""
 
@@ -78,13 +86,7 @@ def _sensitivities(model, names, path, solver):
 
 @pytest.mark.parametrize("which", ["structural", "damper", "piezo"])
 def test_declared_additive_terms_add_a_fixed_function_of_time(which):
-    if which == "structural":
-        family, off, on, x = _structural()
-        path = jh.Recording.quasi_static(x, x).input_path()
-    elif which == "damper":
-        family, off, on, path = _damper()
-    else:
-        family, off, on, path = _piezo()
+    family, off, on, path = _case(which)
     names = [p for e in family.catalogue for p in e.additive]
     assert names, "every family has a drift or offset whose terms are additive"
     solver = jh.RK4(substeps=2)
@@ -195,11 +197,7 @@ def test_an_effect_in_the_model_has_a_column_for_every_parameter(which):
     # Once adopted, every parameter of an effect is free in later refits, and the
     # score test projects the residual off their columns: each needs one, even a
     # shape parameter whose column is zero where it stands.
-    family, off, _, _ = {
-        "structural": _structural,
-        "damper": _damper,
-        "piezo": _piezo,
-    }[which]()
+    family, off, _, _ = _case(which)
     if which == "piezo":
         # The stage dynamics are switched on structurally, not by a gain.
         path = jh.sample(jh.paper_u1(), 200.0)
@@ -215,13 +213,7 @@ def test_an_effect_in_the_model_has_a_column_for_every_parameter(which):
 def test_gains_held_at_zero_leave_the_output_and_the_other_slopes_unchanged(which):
     # A refit holds the gains of the effects it leaves off (`held_at_zero`): their
     # terms leave the equations, and nothing else may move.
-    family, off, on, path = {
-        "structural": _structural,
-        "damper": _damper,
-        "piezo": _piezo,
-    }[which]()
-    if which == "structural":
-        path = jh.Recording.quasi_static(path, path).input_path()
+    family, off, on, path = _case(which)
     solver = jh.RK4(substeps=2)
     for model in (off, on):
         idle = [

@@ -79,8 +79,8 @@ def _normaliser(default: float):
     return eqx.field(converter=as_parameter, default=default, kw_only=True)
 
 
-# The offset's Legendre terms, degree 1 to 8.
-_DRIFT = (
+# The offset's Legendre terms, degree 1 to 8 (the `offset` effect's parameters).
+OFFSET_TERMS = (
     "trend",
     "curvature",
     "wander",
@@ -370,7 +370,7 @@ class ExtendedDamper(AbstractGainHoldingModel):
             + self.k0 * (drive.u - self.x0)
             + hysteretic
             + self.f0
-            + legendre_drift(s, *(self._gain(name) for name in _DRIFT))
+            + legendre_drift(s, *(self._gain(name) for name in OFFSET_TERMS))
         )
 
     def initial_state(self, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]

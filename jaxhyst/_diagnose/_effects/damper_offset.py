@@ -2,6 +2,7 @@
 
 from typing import ClassVar
 
+from ..._models.damper_extended import OFFSET_TERMS
 from .base import AbstractEffect, carries, conclude, fitted, named_units
 
 
@@ -18,16 +19,7 @@ class DamperOffset(AbstractEffect):
     the other effects, and the held-out blocks judge them by interpolation."""
 
     name: ClassVar[str] = "offset"
-    parameters: ClassVar[tuple[str, ...]] = (
-        "trend",
-        "curvature",
-        "wander",
-        "legendre4",
-        "legendre5",
-        "legendre6",
-        "legendre7",
-        "legendre8",
-    )
+    parameters: ClassVar[tuple[str, ...]] = OFFSET_TERMS
     additive: ClassVar[tuple[str, ...]] = parameters
     meaning: ClassVar[str] = (
         "the force's zero moves along the record, independently of the motion "
