@@ -36,7 +36,7 @@ from ._locate import effective_samples
 from ._policy import AdoptionPolicy
 from ._progress import Progress
 from ._records import DiagnosisRecords
-from ._refit import RefitSettings, fitted_names, refit
+from ._refit import RefitSettings, fitted_names, idle_gains, refit
 from ._remainder import remainder
 from ._results import (
     RESOLVED_SIGMA,
@@ -1271,7 +1271,9 @@ def _described(
         return ()
     ctx.progress.say("standard errors of the final model's parameters")
     names = list(state.free)
-    jac = ctx.records.jacobian(final_model, names, ctx.solver)
+    # The effects left off are held at zero: their terms cost nothing here.
+    held = final_model.held_at_zero(idle_gains(ctx.family, final_model, names))
+    jac = ctx.records.jacobian(held, names, ctx.solver)
     errors = dict(zip(names, standard_errors(jac, ctx.y - final_pred).tolist()))
     recording = ctx.recording
     described = []

@@ -89,13 +89,7 @@ def refit(
     parameters far from where the base fit left them. The gains of effects the
     refit leaves off are held at zero meanwhile (`held_at_zero`): their terms are
     not computed."""
-    idle = [
-        p
-        for effect in family.catalogue
-        for p in effect.gains
-        if p not in free and float(getattr(model, p)) == 0.0
-    ]
-    model = model.held_at_zero(idle)
+    model = model.held_at_zero(idle_gains(family, model, free))
     space = refit_space(family, model, free, scales)
     problem = Problem(space, inputs, measured, solver, weights)
     stride = settings.stride
@@ -147,6 +141,19 @@ def refit(
         # `ActiveProblem` offers the part of `Problem` a polish uses.
         z = polish.run(active, z).z  # pyright: ignore[reportArgumentType]
     return model_at(space, active.solved(z)).held_at_zero(())
+
+
+def idle_gains(
+    family: AbstractFamily, model: AbstractHysteresisModel, free
+) -> list[str]:
+    """The gains of the catalogue's effects that are zero in `model` and not in
+    `free`: what a fit over `free` may hold at zero (`held_at_zero`)."""
+    return [
+        p
+        for effect in family.catalogue
+        for p in effect.gains
+        if p not in free and float(getattr(model, p)) == 0.0
+    ]
 
 
 def additive_names(
