@@ -290,6 +290,9 @@ class AbstractGainHoldingModel(AbstractHysteresisModel):
         zero_gains: eqx.AbstractVar[frozenset[str]]
 
     def held_at_zero(self, names: Collection[str]) -> Self:
+        """This model with the gains `names` held at zero (see
+        `AbstractHysteresisModel.held_at_zero`). Each must be a parameter whose
+        value is 0 already (needs concrete values: call it outside `jit`)."""
         names = frozenset(names)
         name = type(self).__name__
         unknown = sorted(names - set(self.parameter_names))
