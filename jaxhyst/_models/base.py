@@ -278,6 +278,12 @@ def _float_bounds(
     return {name: (float(lo), float(hi)) for name, (lo, hi) in bounds.items()}
 
 
+def held_gains_field():
+    """The `zero_gains` field of an `AbstractGainHoldingModel` (static, empty by
+    default, keyword-only)."""
+    return eqx.field(static=True, default=frozenset(), kw_only=True)
+
+
 class AbstractGainHoldingModel(AbstractHysteresisModel):
     """A model with effect terms it can leave out of its equations at trace time:
     the gains in `zero_gains` (static; empty by default) are held at zero, and the

@@ -57,6 +57,7 @@ from .base import (
     AbstractHysteresisModel,
     BoucWenShape,
     as_parameter,
+    held_gains_field,
     hysteretic_rate,
     legendre_drift,
     read_input,
@@ -141,9 +142,7 @@ class ExtendedDamper(AbstractGainHoldingModel):
     # command (no per-stage exponentials: most of a forward pass's cost); with
     # field_alpha and field_damping held no field is computed at all, and with
     # rolloff held no internal dashpot.
-    zero_gains: frozenset[str] = eqx.field(
-        static=True, default=frozenset(), kw_only=True
-    )
+    zero_gains: frozenset[str] = held_gains_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         *BoucWenDamper.parameter_names,

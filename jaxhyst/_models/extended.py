@@ -23,6 +23,7 @@ from .base import (
     AbstractHysteresisModel,
     BoucWenShape,
     as_parameter,
+    held_gains_field,
     hysteretic_rate,
     legendre_drift,
     read_input,
@@ -119,9 +120,7 @@ class ExtendedPiezo(AbstractGainHoldingModel):
     # Gains held at zero (`held_at_zero`): their terms, and the states only they
     # read, are not computed (the shifted input with phi held, the log of the rate
     # with rate_amplitude held, each creep mode with its gain held, ...).
-    zero_gains: frozenset[str] = eqx.field(
-        static=True, default=frozenset(), kw_only=True
-    )
+    zero_gains: frozenset[str] = held_gains_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k1",

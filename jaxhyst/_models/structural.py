@@ -41,6 +41,7 @@ from .base import (
     AbstractHysteresisModel,
     BoucWenShape,
     as_parameter,
+    held_gains_field,
     legendre_drift,
 )
 from .bouc_wen import BoucWen
@@ -86,9 +87,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     # Gains held at zero (`held_at_zero`): with pinch held no pinching (two
     # exponentials and a power per stage) is computed; with it and both degradation
     # rates held, no energy either.
-    zero_gains: frozenset[str] = eqx.field(
-        static=True, default=frozenset(), kw_only=True
-    )
+    zero_gains: frozenset[str] = held_gains_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
         "k",
