@@ -26,6 +26,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int, PRNGKeyArray
 
+from ._program_store import stored_jit
 from ._status import RESULTS, raise_unless_successful
 
 
@@ -458,7 +459,7 @@ def _map_state(state: SwarmState, fn, particle, replicated) -> SwarmState:
     return SwarmState(**changes)
 
 
-@eqx.filter_jit
+@stored_jit
 def _sample_jit(swarm, lower, upper, key):
     with _quick_threefry():
         key_init, key_loop = jr.split(key)
@@ -470,8 +471,7 @@ def _sample_jit(swarm, lower, upper, key):
 _SWARM_COMPILER_OPTIONS = {"xla_cpu_prefer_vector_width": 512}
 
 
-# equinox forwards extra keywords to jax.jit; its typed overloads do not list them.
-@eqx.filter_jit(compiler_options=_SWARM_COMPILER_OPTIONS)  # pyright: ignore[reportCallIssue]
+@stored_jit(compiler_options=_SWARM_COMPILER_OPTIONS)
 def _run_chunk(
     swarm: MPSO,
     objective,

@@ -18,6 +18,7 @@ from .._identification._identifiability import output_jacobian
 from .._identification._problem import stack_inputs
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
+from .._program_store import stored_jit
 from .._recording import Recording, RecordingError
 from .._simulate import AbstractSimulationSolver, simulate
 from ._score import jacobian, predict
@@ -36,7 +37,7 @@ class StackedSimulation(eqx.Module):
         )
 
 
-@eqx.filter_jit
+@stored_jit
 def _simulated(simulation, model):
     return simulation(model)
 

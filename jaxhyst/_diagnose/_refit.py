@@ -22,6 +22,7 @@ from .._identification._problem import (
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
 from .._params import ParameterSpace
+from .._program_store import stored_jit
 from .._simulate import AbstractSimulationSolver
 from .._swarm import MPSO, run_swarm
 from ._effects.base import RefitScales
@@ -264,7 +265,7 @@ class ActiveProblem(eqx.Module):
         return self.problem.fitted_samples
 
 
-@eqx.filter_jit
+@stored_jit
 def _residual_directions(problem: Problem, z: Array, coordinates: Array) -> Array:
     """The residuals' derivative along each of `coordinates` at `z`, (m, k)."""
 

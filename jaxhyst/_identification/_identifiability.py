@@ -13,6 +13,7 @@ from jaxtyping import Array, Float
 
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
+from .._program_store import stored_jit
 from .._simulate import RK4, AbstractSimulationSolver
 from ._problem import RecordSimulation
 
@@ -26,7 +27,7 @@ LOADING = 0.1
 EXACT = 1e-10
 
 
-@eqx.filter_jit
+@stored_jit
 def _jacobian(model, names, outputs):
     values = jnp.stack([jnp.asarray(getattr(model, n), float) for n in names])
 

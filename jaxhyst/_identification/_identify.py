@@ -24,6 +24,7 @@ from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel, DataScales
 from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
+from .._program_store import stored_jit
 from .._recording import Recording
 from .._simulate import RK4, AbstractSimulationSolver
 from .._status import RESULTS, raise_unless_successful, status_message, status_name
@@ -463,6 +464,6 @@ def identify(
     return fit
 
 
-@eqx.filter_jit
+@stored_jit
 def _simulated(problem: Problem, model: AbstractHysteresisModel):
     return problem.simulated(model)

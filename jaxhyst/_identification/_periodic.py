@@ -37,6 +37,7 @@ from .._models.base import AbstractHysteresisModel, DataScales
 from .._models.oscillator import HystereticOscillator
 from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
+from .._program_store import stored_jit
 from .._recording import Recording
 from .._simulate import RK4, AbstractSimulationSolver, simulate
 from .._status import raise_unless_successful
@@ -222,7 +223,7 @@ class SteadyOutput(eqx.Module):
         return self.simulation.output(model, self.path, self.period)
 
 
-@eqx.filter_jit
+@stored_jit
 def _steady_output(simulation, model, path, period):
     return SteadyOutput(simulation, path, period)(model)
 

@@ -15,6 +15,7 @@ import optax
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from .._program_store import stored_jit
 from .._status import RESULTS
 from ._problem import Problem, problem_residuals, problem_rmse
 
@@ -114,7 +115,7 @@ def _objective(least_squares: bool):
     return residuals if least_squares else mean_square
 
 
-@eqx.filter_jit
+@stored_jit
 def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_gain):
     fn = _objective(least_squares)
     options, tags = {}, frozenset()
@@ -272,7 +273,7 @@ class BFGSPolish(AbstractOptimistixPolish):
         return optx.BFGS(self.rtol, self.atol)
 
 
-@eqx.filter_jit
+@stored_jit
 def _adam_steps(problem, z, opt_state, learning_rate, steps):
     optimiser = optax.adam(learning_rate)
 

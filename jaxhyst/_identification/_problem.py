@@ -11,6 +11,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
 from .._params import ParameterSpace
+from .._program_store import stored_jit
 from .._simulate import RK4, AbstractSimulationSolver, simulate, sum_squared_error
 from .._stability import is_bibo_stable
 
@@ -147,20 +148,20 @@ def swarm_objective(z: Float[Array, " d"], problem: Problem) -> Float[Array, ""]
     return problem.rmse(z)
 
 
-@eqx.filter_jit
+@stored_jit
 def problem_rmse(problem: Problem, z: Float[Array, " d"]) -> Float[Array, ""]:
     """`problem.rmse(z)` as one compiled program. Called inside other programs it
     is traced once per process (JAX caches the trace), not once per call."""
     return problem.rmse(z)
 
 
-@eqx.filter_jit
+@stored_jit
 def problem_residuals(problem: Problem, z: Float[Array, " d"]) -> Float[Array, " m"]:
     """`problem.residuals(z)`, traced once per process like `problem_rmse`."""
     return problem.residuals(z)
 
 
-@eqx.filter_jit
+@stored_jit
 def model_at(space: ParameterSpace, z: Float[Array, " d"]) -> AbstractHysteresisModel:
     """`space.to_model(z)` as one program (eagerly it is a dozen tiny ones)."""
     return space.to_model(z)

@@ -1,0 +1,433 @@
+"""Traced programs kept on disk, so that a later process skips tracing them.
+
+JAX's persistent compilation cache (`enable_compilation_cache`) saves compiling, but
+every process still traces and lowers each program before it can look the compiled
+one up, and on the 2-core machine that is most of a warm `jaxhyst fit` and half a
+warm diagnosis. `stored_jit` is `eqx.filter_jit` plus a store: when the store is on
+(`enable_compilation_cache` turns it on with the compilation cache, in a
+`programs` folder inside it), the first call with a given structure of arguments
+traces the function, exports it (`jax.export`) and writes the exported program to
+the store; a later call with the same structure, in this process or another, reads
+it back and runs it without tracing. The export is what runs in both cases, so a
+warm run computes with the same program as the cold run that wrote it.
+
+A stored program is found by a key that fixes everything tracing depends on:
+the function (module and qualified name), the shapes, dtypes and positions of the
+array arguments, every other argument's value (numbers, strings, tuples, `eqx.Module`
+instances field by field, functions and classes by name), the versions of Python,
+jaxhyst's own source (a hash of its files), JAX, jaxlib, equinox, optimistix,
+lineax, optax and NumPy, the backend and its devices, the JAX options that change
+tracing, and the `EQX_*` environment variables. Where an argument is something the
+key cannot pin down by value (an object of a class outside those packages, a
+closure, a lambda, a `functools.partial`), or the program calls back into Python
+(`eqx.error_if`, `jax.debug.print`), or the call is itself being traced (inside
+`jax.jit`, `jax.vmap`, `jax.grad`), the call runs as plain `eqx.filter_jit` and
+nothing is stored.
+
+Files are written to a temporary name and renamed, so two processes sharing the
+folder never read a half-written program; each file carries a checksum and its full
+key, and one that does not match is traced again and written over. The store holds
+pickled Python objects (the non-array parts of the outputs) and programs: like the
+compilation cache, do not point it at a folder that others can write.
+"""
+
+import dataclasses
+import enum
+import functools
+import hashlib
+import importlib.metadata
+import os
+import pickle
+import re
+import sys
+import tempfile
+import types
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Generic, ParamSpec, TypeVar
+
+import equinox as eqx
+import jax
+import numpy as np
+from jax.core import Tracer
+
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+_FORMAT = "jaxhyst-program-store 1"
+_MAGIC = b"JAXHYST-PROGRAM 1\n"
+# Packages whose functions, classes and modules may appear in a key by name: their
+# code is pinned by the versions (or, for jaxhyst, the source hash) in the key.
+_PINNED_PACKAGES = (
+    "jax",
+    "jaxlib",
+    "equinox",
+    "optimistix",
+    "lineax",
+    "optax",
+    "numpy",
+    "jaxhyst",
+)
+# JAX options that change what tracing produces.
+_TRACE_OPTIONS = (
+    "jax_enable_x64",
+    "jax_default_matmul_precision",
+    "jax_numpy_rank_promotion",
+    "jax_numpy_dtype_promotion",
+    "jax_default_prng_impl",
+    "jax_enable_checks",
+    "jax_debug_nans",
+    "jax_debug_infs",
+    "jax_threefry_partitionable",
+)
+# With these on, JAX's own behaviour (op-by-op re-runs, no compilation) is wanted.
+_DEBUG_OPTIONS = ("jax_disable_jit", "jax_debug_nans", "jax_debug_infs")
+_CUSTOM_CALL_REFUSED = "Cannot serialize code with custom calls"
+_CALLBACKS_REFUSED = "serialization of host_callbacks"
+
+_store: Path | None = None
+
+
+def enable_program_store(path: Path | None) -> None:
+    """Keep traced programs in `path` (created when the first one is written), or
+    turn the store off with `None`. `enable_compilation_cache` calls this."""
+    global _store
+    _store = None if path is None else Path(path)
+
+
+def program_store() -> Path | None:
+    """The folder `stored_jit` programs are kept in, or `None` when the store is
+    off (the default: a library import changes nothing)."""
+    return _store
+
+
+class _Unpinned(Exception):
+    """An argument the key cannot pin down by value (internal: the call then runs
+    unstored)."""
+
+
+def _pinned_name(obj: Any) -> str:
+    module = getattr(obj, "__module__", None)
+    qualname = getattr(obj, "__qualname__", None)
+    if not isinstance(module, str) or not isinstance(qualname, str):
+        raise _Unpinned(type(obj).__name__)
+    if module.split(".")[0] not in _PINNED_PACKAGES or "<" in qualname:
+        raise _Unpinned(f"{module}.{qualname}")
+    return f"{module}.{qualname}"
+
+
+def _encode(obj: Any, *, static: bool = False) -> str:
+    """A string that fixes `obj` for tracing: arrays by shape, dtype and weak type,
+    everything else by value. Raises `_Unpinned` for what it cannot fix."""
+    if eqx.is_array(obj):
+        if static:
+            raise _Unpinned("an array in a static field")
+        weak = bool(getattr(obj, "weak_type", False))
+        return f"A[{obj.dtype}{tuple(obj.shape)}{'w' if weak else ''}]"
+    if obj is None or isinstance(obj, (bool, int, float, complex, str, bytes)):
+        return f"{type(obj).__name__}:{obj!r}"
+    if isinstance(obj, enum.Enum):
+        return f"E[{_pinned_name(type(obj))}.{obj.name}]"
+    if isinstance(obj, np.dtype):
+        return f"D[{obj.str}]"
+    if isinstance(obj, eqx.Module):
+        parts = [
+            f"{f.name}={_encode(getattr(obj, f.name), static=static or bool(f.metadata.get('static', False)))}"
+            for f in dataclasses.fields(obj)
+        ]
+        return f"M[{_pinned_name(type(obj))}]({','.join(parts)})"
+    if isinstance(obj, tuple) and hasattr(obj, "_fields"):  # a NamedTuple
+        inner = ",".join(_encode(x, static=static) for x in obj)
+        return f"N[{_pinned_name(type(obj))}]({inner})"
+    if type(obj) in (tuple, list):
+        inner = ",".join(_encode(x, static=static) for x in obj)
+        return f"{type(obj).__name__}({inner})"
+    if type(obj) is dict:
+        items = sorted(
+            (_encode(k, static=True), _encode(v, static=static)) for k, v in obj.items()
+        )
+        return "dict(" + ",".join(f"{k}:{v}" for k, v in items) + ")"
+    if type(obj) in (set, frozenset):
+        return f"{type(obj).__name__}({','.join(sorted(_encode(x, static=True) for x in obj))})"
+    if isinstance(obj, type):
+        return f"T[{_pinned_name(obj)}]"
+    if isinstance(obj, types.FunctionType):
+        # A decorated function's closure holds what it wraps: pinned by value too.
+        cells = tuple(c.cell_contents for c in obj.__closure__ or ())
+        fixed = (obj.__defaults__, obj.__kwdefaults__, cells)
+        return f"F[{_pinned_name(obj)}]{_encode(fixed, static=True)}"
+    if isinstance(obj, (types.BuiltinFunctionType, np.ufunc)):
+        return f"F[{_pinned_name(obj)}]"
+    if isinstance(obj, types.ModuleType):
+        if obj.__name__.split(".")[0] not in _PINNED_PACKAGES:
+            raise _Unpinned(obj.__name__)
+        return f"Mod[{obj.__name__}]"
+    # jax's jitted functions (jnp.sin and the like) carry their wrapped function.
+    wrapped = getattr(obj, "__wrapped__", None)
+    if wrapped is not None and callable(obj) and type(obj).__module__.startswith("jax"):
+        return f"J[{_encode(wrapped, static=True)}]"
+    raise _Unpinned(type(obj).__qualname__)
+
+
+@functools.cache
+def _source_hash() -> str:
+    """A hash of jaxhyst's Python source: a changed file is a new key."""
+    digest = hashlib.sha256()
+    root = Path(__file__).resolve().parent
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def _version(package: str) -> str:
+    try:
+        return importlib.metadata.version(package)
+    except importlib.metadata.PackageNotFoundError:
+        return "absent"
+
+
+@functools.cache
+def _fixed_environment() -> str:
+    versions = [f"{p}={_version(p)}" for p in _PINNED_PACKAGES if p != "jaxhyst"]
+    devices = jax.devices()
+    return ";".join(
+        [
+            _FORMAT,
+            f"python={sys.version_info[:3]}",
+            f"jaxhyst-source={_source_hash()}",
+            *versions,
+            f"backend={jax.default_backend()}",
+            f"devices={len(devices)}x{devices[0].device_kind}",
+        ]
+    )
+
+
+def _environment() -> str:
+    options = [f"{name}={getattr(jax.config, name, None)!r}" for name in _TRACE_OPTIONS]
+    eqx_env = [
+        f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("EQX_")
+    ]
+    return ";".join([_fixed_environment(), *options, *eqx_env])
+
+
+class _Slot:
+    """Where the `index`-th array output goes back into the output's structure."""
+
+    def __init__(self, index: int):
+        self.index = index
+
+
+@dataclasses.dataclass(frozen=True)
+class _Program:
+    run: Callable[..., Any]  # array leaves in, array outputs out
+    skeleton: Any  # the output with `_Slot`s where its arrays go
+
+
+class _StoredJit(Generic[_P, _R]):
+    """`eqx.filter_jit(fn)` with its traced programs kept in the program store."""
+
+    def __init__(self, fn: Callable[_P, _R], compiler_options: dict | None):
+        self.jitted = (
+            eqx.filter_jit(fn)
+            if compiler_options is None
+            else eqx.filter_jit(fn, compiler_options=compiler_options)  # pyright: ignore[reportCallIssue]
+        )
+        # Traced inside the export's `jax.jit`, which compiles with the options.
+        self._traced = eqx.filter_jit(fn)
+        self._fn = fn
+        self._compiler_options = compiler_options
+        self._memo: dict[str, _Program | None] = {}  # None: cannot be stored
+        functools.update_wrapper(self, fn)
+
+    def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
+        store = _store
+        if store is None or any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
+            return self.jitted(*args, **kwargs)
+        arguments = (args, kwargs)
+        leaves, treedef = jax.tree_util.tree_flatten(arguments)
+        if any(isinstance(leaf, Tracer) for leaf in leaves) or not all(
+            _on_default_device(leaf) for leaf in leaves
+        ):
+            return self.jitted(*args, **kwargs)
+        try:
+            # The function itself too: a closure or a local function is not pinned.
+            function = _encode(self._fn, static=True)
+            key = "|".join([_environment(), function, _encode(arguments)])
+        except _Unpinned:
+            return self.jitted(*args, **kwargs)
+        digest = hashlib.sha256(key.encode()).hexdigest()
+        if digest not in self._memo:
+            program = self._load(store, digest, key)
+            if program is None:
+                program = self._build(store, digest, key, leaves, treedef)
+            self._memo[digest] = program
+        program = self._memo[digest]
+        if program is None:
+            return self.jitted(*args, **kwargs)
+        arrays = [leaf for leaf in leaves if eqx.is_array(leaf)]
+        outputs = program.run(*arrays)
+        return _rebuild(program.skeleton, outputs)
+
+    def _wrap(self, exported) -> Callable[..., Any]:
+        # Every input on the default device, committed or not: one compilation
+        # (left to itself, jit compiles again for each mix of committed inputs).
+        device = jax.sharding.SingleDeviceSharding(jax.devices()[0])
+        return jax.jit(
+            exported.call,
+            in_shardings=device,
+            compiler_options=self._compiler_options,
+        )
+
+    def _load(self, store: Path, digest: str, key: str) -> "_Program | None":
+        path = store / f"{digest}.program"
+        try:
+            data = path.read_bytes()
+        except OSError:  # not there (the usual case), or unreadable: trace it
+            return None
+        if data[: len(_MAGIC)] != _MAGIC:
+            return None
+        payload = data[len(_MAGIC) :]
+        checksum, _, payload = payload.partition(b"\n")
+        if hashlib.sha256(payload).hexdigest().encode() != checksum:
+            return None  # damaged or partly written by an old format: write again
+        stored_key, exported_bytes, skeleton = pickle.loads(payload)
+        if stored_key != key:
+            return None
+        exported = jax.export.deserialize(bytearray(exported_bytes))
+        return _Program(self._wrap(exported), skeleton)
+
+    def _build(
+        self, store: Path, digest: str, key: str, leaves, treedef
+    ) -> "_Program | None":
+        """Trace and export the program, write it to the store and return it; `None`
+        if it cannot be stored."""
+        is_array = [eqx.is_array(leaf) for leaf in leaves]
+        static = [None if a else leaf for leaf, a in zip(leaves, is_array)]
+        found: dict[str, Any] = {}
+
+        def stored(*arrays):
+            it = iter(arrays)
+            rebuilt = [next(it) if a else s for s, a in zip(static, is_array)]
+            args, kwargs = jax.tree_util.tree_unflatten(treedef, rebuilt)
+            out = self._traced(*args, **kwargs)  # pyright: ignore[reportCallIssue]
+            out_leaves, out_tree = jax.tree_util.tree_flatten(out)
+            arrays_out, slots = [], []
+            for leaf in out_leaves:
+                if eqx.is_array(leaf):
+                    slots.append(_Slot(len(arrays_out)))
+                    arrays_out.append(leaf)
+                else:
+                    slots.append(leaf)
+            found["skeleton"] = jax.tree_util.tree_unflatten(out_tree, slots)
+            return arrays_out
+
+        arrays = [leaf for leaf, a in zip(leaves, is_array) if a]
+        stored.__name__ = f"stored_{getattr(self._fn, '__name__', 'program')}"
+        exported = _export(stored, arrays)
+        if exported is None:
+            return None
+        skeleton = found["skeleton"]
+        try:
+            _encode(jax.tree_util.tree_map(lambda s: None, skeleton, is_leaf=_is_slot))
+        except _Unpinned:
+            return None  # an output pickle could not bring back faithfully
+        payload = pickle.dumps((key, bytes(exported.serialize()), skeleton))
+        try:
+            _write(store / f"{digest}.program", payload)
+        except OSError:
+            pass  # a full disk, a folder made read-only: run it all the same
+        return _Program(self._wrap(exported), skeleton)
+
+
+def _lapack_targets() -> set[str]:
+    """jaxlib's CPU LAPACK kernels (linear solves, QR): allowed from the start, so
+    that a program using them is not lowered twice to learn their names."""
+    try:
+        from jaxlib import lapack
+    except ImportError:
+        return set()
+    registrations = getattr(lapack, "registrations", None)
+    if registrations is None:
+        return set()
+    return {entry[0] for entries in registrations().values() for entry in entries}
+
+
+_allowed_custom_calls: set[str] = _lapack_targets()
+
+
+def _export(stored, arrays):
+    """`jax.export` of `stored`, or `None` if the program cannot be stored (it calls
+    back into Python). Custom calls with no compatibility guarantee across JAX
+    versions (LAPACK on CPU) are allowed: the key pins the JAX version."""
+    from jax import export
+
+    for _ in range(8):
+        checks = [
+            export.DisabledSafetyCheck.custom_call(n)
+            for n in sorted(_allowed_custom_calls)
+        ]
+        try:
+            return export.export(jax.jit(stored), disabled_checks=checks)(*arrays)
+        except NotImplementedError as error:
+            if _CALLBACKS_REFUSED in str(error):
+                return None
+            raise
+        except ValueError as error:
+            if not str(error).startswith(_CUSTOM_CALL_REFUSED):
+                raise
+            names = set(re.findall(r"custom_call @(\w+)", str(error)))
+            if (
+                not names
+                or names <= _allowed_custom_calls
+                or any("callback" in n for n in names)
+            ):
+                return None
+            _allowed_custom_calls.update(names)
+    return None
+
+
+def _on_default_device(leaf) -> bool:
+    """False for an array committed to another device than the default one (the
+    stored programs run there)."""
+    if not isinstance(leaf, jax.Array) or not getattr(leaf, "committed", False):
+        return True
+    return leaf.sharding.device_set == {jax.devices()[0]}
+
+
+def _is_slot(x) -> bool:
+    return isinstance(x, _Slot)
+
+
+def _rebuild(skeleton, outputs):
+    return jax.tree_util.tree_map(
+        lambda s: outputs[s.index] if isinstance(s, _Slot) else s,
+        skeleton,
+        is_leaf=_is_slot,
+    )
+
+
+def _write(path: Path, payload: bytes) -> None:
+    """Write `path` whole or not at all (a temporary file, then a rename)."""
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    checksum = hashlib.sha256(payload).hexdigest().encode()
+    fd, temporary = tempfile.mkstemp(prefix=".program-", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(_MAGIC + checksum + b"\n" + payload)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def stored_jit(
+    fn: Callable[_P, _R] | None = None, *, compiler_options: dict | None = None
+) -> Any:
+    """`eqx.filter_jit` whose traced programs are kept in the program store when it
+    is on (see the module docstring); with the store off it is `eqx.filter_jit`.
+    Use it as `@stored_jit` or `@stored_jit(compiler_options=...)`."""
+    if fn is None:
+        return functools.partial(stored_jit, compiler_options=compiler_options)
+    return _StoredJit(fn, compiler_options)

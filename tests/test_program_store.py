@@ -1,0 +1,252 @@
+"""The program store: traced programs kept on disk so that a later call (in this
+process or another) runs them without tracing; what it refuses to store; what it
+does with a damaged file. Fresh processes check the cross-process case."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxhyst import _program_store
+from jaxhyst._program_store import enable_program_store, program_store, stored_jit
+
+
+class _Scaled(eqx.Module):
+    weights: jax.Array
+    power: int = eqx.field(static=True)
+
+
+traces = {"count": 0}
+
+
+def _body(model: _Scaled, x, offset: float):
+    traces["count"] += 1
+    return {"y": jnp.sum(model.weights * x**model.power) + offset, "n": model.power}
+
+
+_stored = stored_jit(_body)
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    """The store on in `tmp_path`, with this module's names accepted in keys (its
+    source is not part of the key: the tests change nothing in it); off after."""
+    monkeypatch.setattr(
+        _program_store,
+        "_PINNED_PACKAGES",
+        (*_program_store._PINNED_PACKAGES, __name__.split(".")[0]),
+    )
+    monkeypatch.setattr(_stored, "_memo", {})
+    before = program_store()
+    enable_program_store(tmp_path / "programs")
+    jax.clear_caches()  # so that the trace counts below see every trace
+    traces["count"] = 0
+    yield tmp_path / "programs"
+    enable_program_store(before)
+
+
+def _files(folder: Path) -> list[Path]:
+    return sorted(folder.glob("*.program")) if folder.exists() else []
+
+
+def _model(power=2):
+    return _Scaled(jnp.array([1.0, 2.0, 3.0]), power)
+
+
+def test_the_store_is_off_until_turned_on(tmp_path):
+    assert program_store() is None  # a library import changes nothing
+    traces["count"] = 0
+    out = _stored(_model(), jnp.ones(3), 0.5)
+    assert out["y"] == 6.5 and out["n"] == 2
+    assert traces["count"] == 1
+
+
+def test_a_stored_program_gives_the_traced_result_and_is_not_traced_again(store):
+    x = jnp.linspace(0.0, 1.0, 3)
+    out = _stored(_model(), x, 0.5)
+    assert traces["count"] == 1  # traced once, to export it
+    assert len(_files(store)) == 1
+    assert out["n"] == 2 and isinstance(out["n"], int)  # static outputs come back
+    expected = _stored.jitted(_model(), x, 0.5)  # plain filter_jit
+    np.testing.assert_array_equal(out["y"], expected["y"])
+    # New array values, same structure: the stored program, no new trace or file.
+    _stored.__dict__["_memo"] = {}  # as a new process would: read it from disk
+    jax.clear_caches()
+    again = _stored(_Scaled(jnp.array([3.0, 2.0, 1.0]), 2), x + 1.0, 0.5)
+    assert traces["count"] == 1
+    assert len(_files(store)) == 1
+    np.testing.assert_allclose(
+        again["y"], np.sum(np.array([3.0, 2.0, 1.0]) * (np.asarray(x) + 1) ** 2) + 0.5
+    )
+
+
+def test_what_tracing_depends_on_is_part_of_the_key(store):
+    x = jnp.ones(3)
+    _stored(_model(2), x, 0.5)
+    _stored(_model(3), x, 0.5)  # a static field
+    _stored(_model(2), x, 0.25)  # a Python number (static under filter_jit)
+    _stored(_Scaled(jnp.ones(4), 2), jnp.ones(4), 0.5)  # a shape
+    _stored(_model(2), jnp.ones(3, dtype=jnp.float32), 0.5)  # a dtype
+    assert traces["count"] == 5
+    assert len(_files(store)) == 5
+    y = _stored(_model(3), x, 0.25)["y"]
+    assert float(y) == 6.25
+
+
+def test_what_the_key_cannot_pin_down_runs_unstored(store):
+    x = jnp.ones(3)
+
+    class Local(eqx.Module):  # defined at run time: no name pins its code
+        w: jax.Array
+
+    def body(m, x):
+        return jnp.sum(m.w * x)
+
+    local = stored_jit(body)
+    assert float(local(Local(jnp.ones(3)), x)) == 3.0
+    scale = jnp.array(2.0)
+    closure = stored_jit(lambda x: jnp.sum(x * scale))
+    assert float(closure(x)) == 6.0
+    assert _files(store) == []
+
+
+def test_programs_that_call_back_into_python_run_unstored(store, monkeypatch):
+    def checked(x):
+        return eqx.error_if(x, x < 0, "negative input")
+
+    monkeypatch.setattr(sys.modules[__name__], "_checked", checked, raising=False)
+    stored = stored_jit(checked)
+    np.testing.assert_array_equal(stored(jnp.ones(2)), jnp.ones(2))
+    assert _files(store) == []
+    with pytest.raises(Exception, match="negative input"):
+        stored(-jnp.ones(2))
+
+
+def test_calls_inside_jit_vmap_and_grad_are_traced_as_usual(store):
+    def total(x):
+        return _stored(_model(), x, 0.0)["y"]
+
+    x = jnp.array([0.5, 1.0, 1.5])
+    assert float(jax.jit(total)(x)) == pytest.approx(1 * 0.25 + 2 * 1 + 3 * 2.25)
+    np.testing.assert_allclose(jax.grad(total)(x), 2 * np.array([1.0, 2.0, 3.0]) * x)
+    assert jax.vmap(total)(jnp.stack([x, x])).shape == (2,)
+    assert _files(store) == []
+
+
+def test_a_damaged_or_foreign_file_is_traced_again_and_replaced(store):
+    x = jnp.ones(3)
+    first = _stored(_model(), x, 0.5)["y"]
+    (path,) = _files(store)
+    good = path.read_bytes()
+    for damaged in (good[: len(good) // 2], b"nonsense", good.replace(b"A[", b"B[", 1)):
+        path.write_bytes(damaged)
+        _stored.__dict__["_memo"] = {}
+        jax.clear_caches()
+        traces["count"] = 0
+        assert _stored(_model(), x, 0.5)["y"] == first
+        assert traces["count"] == 1
+        assert path.read_bytes() != damaged
+    # A valid file under another key's name is not used for this key.
+    _stored(_model(3), x, 0.5)
+    other = next(p for p in _files(store) if p != path)
+    path.write_bytes(other.read_bytes())
+    _stored.__dict__["_memo"] = {}
+    jax.clear_caches()
+    traces["count"] = 0
+    assert _stored(_model(), x, 0.5)["y"] == first
+    assert traces["count"] == 1
+
+
+_CHILD = textwrap.dedent(
+    """
+    import json, sys
+
+    import jax
+    jax.config.update("jax_enable_x64", True)
+
+    import jaxhyst as jh
+    from jaxhyst import enable_compilation_cache
+
+    traced = []
+    jax.monitoring.register_event_duration_secs_listener(
+        lambda event, duration, **kw: traced.append(kw.get("fun_name"))
+        if event == "/jax/core/compile/jaxpr_trace_duration" else None
+    )
+    enable_compilation_cache()
+    model = jh.PiezoBoucWen.paper_table4(3)
+    path = jh.sample(jh.paper_u1(), 100.0)
+    y = jh.simulate(model, path, jh.RK4())
+    import numpy as np
+    recording = jh.Recording(np.arange(path.num_samples) / 100.0, np.asarray(path.values), np.asarray(y))
+    fit = jh.identify(
+        jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
+        recording,
+        key=jax.random.key(0),
+        swarm=jh.MPSO(num_particles=8, num_iterations=10),
+    )
+    print(json.dumps({
+        "traced": traced,
+        "parameters": {k: float(v) for k, v in fit.model.parameters().items()},
+    }))
+    """
+)
+
+
+def _identify_in_child(cache: Path) -> dict:
+    env = dict(os.environ, JAXHYST_CACHE_DIR=str(cache), JAX_PLATFORMS="cpu")
+    done = subprocess.run(
+        [sys.executable, "-c", _CHILD], env=env, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_a_second_process_identifies_without_tracing_the_fit(tmp_path):
+    cache = tmp_path / "cache"
+    first = _identify_in_child(cache)
+    stored = _files(cache / "programs")
+    assert len(stored) >= 3  # the swarm, the polish, the identifiability at least
+    # Traced under the export's jit ("stored_<name>"), which traces them inside it.
+    heavy = {"stored__run_chunk", "stored__optimistix_loop", "stored__jacobian"}
+    assert heavy <= set(first["traced"]), first["traced"]
+    second = _identify_in_child(cache)
+    assert not heavy & set(second["traced"]), second["traced"]
+    assert _files(cache / "programs") == stored
+    assert second["parameters"] == first["parameters"]
+
+
+def test_committed_and_uncommitted_inputs_share_one_compiled_program(store):
+    compiled = []
+
+    def listener(event, duration, **kwargs):
+        if event == "/jax/core/compile/backend_compile_duration":
+            compiled.append(kwargs.get("fun_name"))
+
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        x = jnp.ones(3)
+        committed = jax.device_put(jnp.ones(3), jax.devices()[0])
+        _stored(_model(), x, 0.5)
+        _stored(_model(), committed, 0.5)
+        _stored(_Scaled(jax.device_put(jnp.ones(3), jax.devices()[0]), 2), x, 0.5)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert compiled.count("jit(call)") == 1, compiled
+
+
+def test_a_store_that_cannot_be_written_runs_the_program_all_the_same(store, tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    enable_program_store(blocker / "programs")  # cannot be created
+    traces["count"] = 0
+    out = _stored(_model(), jnp.ones(3), 0.5)
+    assert float(out["y"]) == 6.5 and out["n"] == 2
+    assert traces["count"] == 1
