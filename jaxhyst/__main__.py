@@ -1,9 +1,7 @@
 """`python -m jaxhyst ...`: the same command line as the `jaxhyst` script."""
 
-import sys
-
-from ._cli import main
+from ._cli import script
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    script()

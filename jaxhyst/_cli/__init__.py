@@ -14,4 +14,4 @@ stderr and exit status 2, without a traceback; warnings go to stderr as
 `jaxhyst: warning: ...`.
 """
 
-from ._main import main as main
+from ._main import main as main, script as script
