@@ -203,6 +203,23 @@ def test_help_and_version_exit_0(capsys):
     assert jh.__version__ in capsys.readouterr().out
 
 
+def test_a_library_error_keeps_its_traceback(tmp_path, capsys, monkeypatch):
+    # A ValueError raised inside NumPy (here standing for any bug in how jaxhyst
+    # uses a library) is not the user's mistake: it is not turned into one line.
+    from jaxhyst._cli import _simulate
+
+    def broken(*args, **kwargs):
+        return np.reshape(np.ones(3), (2,))
+
+    monkeypatch.setattr(_simulate, "simulate", broken)
+    with pytest.raises(ValueError, match="reshape"):
+        main(["simulate", "--out", str(tmp_path / "run")])
+    assert "jaxhyst: error" not in capsys.readouterr().err
+    # jaxhyst's own checks of what the user gave stay one line.
+    assert main(["simulate", "--param", "bogus=1", "--out", str(tmp_path / "b")]) == 2
+    assert capsys.readouterr().err.startswith("jaxhyst: error: ")
+
+
 def test_python_dash_m_runs_the_cli(tmp_path):
     out = tmp_path / "run"
     result = subprocess.run(

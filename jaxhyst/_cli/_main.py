@@ -4,6 +4,7 @@ turns user errors into one line on stderr."""
 import argparse
 import os
 import sys
+import traceback
 from collections.abc import Sequence
 from typing import NoReturn
 
@@ -57,6 +58,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def raised_by_jaxhyst(error: BaseException) -> bool:
+    """Whether a `raise` statement in jaxhyst's own code raised `error`: the checks
+    of what the user gave (a bad option value, a model file that does not fit the
+    recording), which the command line reports in one line. A `ValueError` or
+    `TypeError` raised inside JAX, NumPy or another library is a bug in how jaxhyst
+    used it, or in that library, and keeps its traceback."""
+    frames = traceback.extract_tb(error.__traceback__)
+    if not frames:
+        return False
+    last = frames[-1]
+    inside = os.path.abspath(last.filename).startswith(_PACKAGE + os.sep)
+    return inside and (last.line or "").lstrip().startswith("raise")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line with `argv` (default: `sys.argv[1:]`); returns the exit
     status: 0 on success, 2 on a user error (reported as one line on stderr)."""
@@ -74,7 +92,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except SystemExit as stop:  # --help and --version
         return stop.code if isinstance(stop.code, int) else 0
-    except (RecordingError, ValueError, TypeError, ImportError, OSError) as error:
+    except (RecordingError, ImportError, OSError) as error:
+        print(f"{PROG}: error: {one_line(error)}", file=sys.stderr)
+        return 2
+    except (ValueError, TypeError) as error:
+        if not raised_by_jaxhyst(error):
+            raise  # a bug (in jaxhyst's use of a library, or in one): its traceback
         print(f"{PROG}: error: {one_line(error)}", file=sys.stderr)
         return 2
 
