@@ -30,6 +30,24 @@ CORE_PACKAGES = ("jaxhyst", "jax", "jaxlib", "numpy", "equinox", "optimistix")
 DATA_DIR_DEFAULT = "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data"
 
 
+# ------------------------------------------------------------ the command line
+
+
+def cli_command() -> list[str]:
+    """The `jaxhyst` console script beside this interpreter, else `python -m`."""
+    name = "jaxhyst.exe" if os.name == "nt" else "jaxhyst"
+    script = os.path.join(os.path.dirname(sys.executable), name)
+    if os.path.isfile(script):
+        return [script]
+    return [sys.executable, "-m", "jaxhyst"]
+
+
+def cache_size(folder) -> tuple[int, int]:
+    """JAX's compilation-cache entries in `folder`: how many, and their bytes."""
+    entries = [e for e in os.scandir(folder) if e.name.endswith("-cache")]
+    return len(entries), sum(e.stat().st_size for e in entries)
+
+
 # --------------------------------------------------------------------------- logging
 
 

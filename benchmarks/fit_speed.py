@@ -249,23 +249,9 @@ def run_child(args, kind):
     return result
 
 
-def cli_command():
-    """The `jaxhyst` console script beside this interpreter, else `python -m`."""
-    name = "jaxhyst.exe" if os.name == "nt" else "jaxhyst"
-    script = os.path.join(os.path.dirname(sys.executable), name)
-    if os.path.isfile(script):
-        return [script]
-    return [sys.executable, "-m", "jaxhyst"]
-
-
-def cache_size(folder):
-    entries = [e for e in os.scandir(folder) if e.name.endswith("-cache")]
-    return len(entries), sum(e.stat().st_size for e in entries)
-
-
 def run_cli_fit(args, cache_dir, out):
     """One fresh `jaxhyst fit` process with JAXHYST_CACHE_DIR=cache_dir."""
-    cmd = [*cli_command(), "fit", args.recording, "--json", out, "--force"]
+    cmd = [*common.cli_command(), "fit", args.recording, "--json", out, "--force"]
     cmd += ["--seed", str(args.seed)]
     env = dict(os.environ, JAXHYST_CACHE_DIR=cache_dir)
     env.pop("XLA_FLAGS", None)
@@ -281,7 +267,7 @@ def run_cli_fit(args, cache_dir, out):
         )
     with open(out) as f:
         data = json.load(f)
-    entries, size = cache_size(cache_dir)
+    entries, size = common.cache_size(cache_dir)
     return {
         "wall_s": wall_s,
         "identify_total_s": float(data["timing"]["total_s"]),
@@ -322,7 +308,7 @@ def cli_cold_warm(args, folder, sigma):
         }
     return {
         "command": " ".join(
-            [*cli_command(), "fit", "RECORDING", "--json", "OUT", "--force"]
+            [*common.cli_command(), "fit", "RECORDING", "--json", "OUT", "--force"]
         ),
         "repeats": args.cli_repeats,
         "runs": runs,
