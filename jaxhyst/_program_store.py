@@ -19,7 +19,8 @@ jaxhyst's own source (a hash of its files), JAX, jaxlib, equinox, optimistix,
 lineax, optax and NumPy, the backend and its devices, the JAX options that change
 tracing, and the `EQX_*` environment variables. Where an argument is something the
 key cannot pin down by value (an object of a class outside those packages, a
-closure, a lambda, a `functools.partial`), or the program calls back into Python
+lambda or local function, a closure over arrays or over such objects, a
+`functools.partial`), or the program calls back into Python
 (`eqx.error_if`, `jax.debug.print`), or the call is itself being traced (inside
 `jax.jit`, `jax.vmap`, `jax.grad`), the call runs as plain `eqx.filter_jit` and
 nothing is stored.
@@ -229,13 +230,14 @@ class _StoredJit(Generic[_P, _R]):
     """`eqx.filter_jit(fn)` with its traced programs kept in the program store."""
 
     def __init__(self, fn: Callable[_P, _R], compiler_options: dict | None):
+        # `_traced` runs inside the export's `jax.jit` (nested: no compiler options;
+        # the exported call's `jax.jit` compiles with them).
+        self._traced = eqx.filter_jit(fn)
         self.jitted = (
-            eqx.filter_jit(fn)
+            self._traced
             if compiler_options is None
             else eqx.filter_jit(fn, compiler_options=compiler_options)  # pyright: ignore[reportCallIssue]
         )
-        # Traced inside the export's `jax.jit`, which compiles with the options.
-        self._traced = eqx.filter_jit(fn)
         self._fn = fn
         self._compiler_options = compiler_options
         self._memo: dict[str, _Program | None] = {}  # None: cannot be stored
@@ -252,7 +254,8 @@ class _StoredJit(Generic[_P, _R]):
         ):
             return self.jitted(*args, **kwargs)
         try:
-            # The function itself too: a closure or a local function is not pinned.
+            # The function itself too: a lambda, a local function or a closure over
+            # what cannot be pinned is not.
             function = _encode(self._fn, static=True)
             key = "|".join([_environment(), function, _encode(arguments)])
         except _Unpinned:
