@@ -16,8 +16,12 @@ from ._models.base import AbstractHysteresisModel, DataScales
 from ._recording import Recording
 
 
-# Exponents below 1 leave Table 2's stable classes (and |h|^n loses its derivative).
-_HARD_FLOORS = {"n": 1.0, "nu": 1.0}
+# Exponents below 1 leave Table 2's stable classes (and |h|^n loses its derivative);
+# a pinching's slip region cannot narrow as energy is dissipated (its width would
+# pass through zero).
+_HARD_FLOORS = {"n": 1.0, "nu": 1.0, "pinch_spread": 0.0}
+# With `stable_shape`, beta + gamma >= this share of beta: strictly inside Table 2.
+_STABLE_MARGIN = 1e-6
 
 
 class ParameterSpace(eqx.Module):
@@ -27,6 +31,12 @@ class ParameterSpace(eqx.Module):
     `log_scale` names the free parameters searched on a log scale (bounds must then
     have one sign). Build the model's default space for a recording with
     `ParameterSpace.default(model, recording)`.
+
+    `stable_shape=True` keeps every model the space gives inside Table 2's stable
+    classes (for A > 0: beta >= 0 and beta + gamma > 0, a loop whose hysteretic
+    displacement saturates) whatever the coordinates say, as hard floors on the
+    model's beta and then gamma (`bouc_wen_shape().names`): a polish that steps out
+    of them stops at their edge instead of fitting an unbounded element.
     """
 
     template: AbstractHysteresisModel
@@ -36,6 +46,7 @@ class ParameterSpace(eqx.Module):
     upper: Float[Array, " d"]
     floor: Float[Array, " d"]
     frozen: Bool[Array, " d"]
+    stable_shape: bool = eqx.field(static=True)
 
     def __init__(
         self,
@@ -44,6 +55,7 @@ class ParameterSpace(eqx.Module):
         *,
         log_scale: tuple[str, ...] | list[str] = (),
         frozen: tuple[str, ...] | list[str] = (),
+        stable_shape: bool = False,
     ):
         if not isinstance(template, AbstractHysteresisModel):
             raise TypeError(
@@ -91,6 +103,12 @@ class ParameterSpace(eqx.Module):
         # Frozen parameters keep the template's value whatever z says. The mask is
         # traced, so fits over different subsets of one space share a compilation.
         self.frozen = jnp.asarray([n in frozen for n in names], bool)
+        if not isinstance(stable_shape, bool):
+            raise TypeError(
+                f"ParameterSpace: stable_shape must be True or False, got "
+                f"{stable_shape!r}."
+            )
+        self.stable_shape = stable_shape
 
     @property
     def dimension(self) -> int:
@@ -119,11 +137,12 @@ class ParameterSpace(eqx.Module):
     def to_model(self, z: Float[ArrayLike, " d"]) -> AbstractHysteresisModel:
         """The template with the free parameters set from unit-box coordinates."""
         values = jnp.where(self.frozen, self._template_values(), self.to_values(z))
-        return eqx.tree_at(
+        model = eqx.tree_at(
             lambda m: [getattr(m, n) for n in self.names],
             self.template,
             [values[i] for i in range(self.dimension)],
         )
+        return _inside_table_2(model) if self.stable_shape else model
 
     def _template_values(self) -> Float[Array, " d"]:
         return jnp.stack([jnp.asarray(getattr(self.template, n)) for n in self.names])
@@ -171,3 +190,22 @@ class ParameterSpace(eqx.Module):
             scales = DataScales.of(scales)
         box = template.default_bounds(scales, gauge=gauge, **options)
         return cls(box.template, box.bounds, log_scale=box.log_scale)
+
+
+def _inside_table_2(model: AbstractHysteresisModel) -> AbstractHysteresisModel:
+    """`model` with its Bouc-Wen beta floored at 0 and then gamma at
+    -(1 - margin)*beta (plus the smallest normal number, for beta = 0) where A > 0
+    (Table 2's stable classes: beta >= 0 and beta + gamma > 0); unchanged inside
+    them."""
+    shape = model.bouc_wen_shape()
+    beta_name, gamma_name = shape.names[1], shape.names[2]
+    positive = shape.A > 0
+    beta = jnp.where(positive, jnp.maximum(shape.beta, 0.0), shape.beta)
+    tiny = jnp.finfo(jnp.result_type(beta)).tiny
+    floor = -(1 - _STABLE_MARGIN) * beta + tiny
+    gamma = jnp.where(positive, jnp.maximum(shape.gamma, floor), shape.gamma)
+    return eqx.tree_at(
+        lambda m: (getattr(m, beta_name), getattr(m, gamma_name)),
+        model,
+        (beta, gamma),
+    )

@@ -46,6 +46,35 @@ def test_parameter_space_round_trip_and_scaling():
     np.testing.assert_allclose(space.from_model(model), z, rtol=1e-12)
 
 
+def test_a_stable_shape_space_keeps_every_model_in_table_2():
+    # Bounds reaching beta < 0 and beta + gamma < 0 (outside Table 2 for A > 0):
+    # with stable_shape the models are floored back inside; models already inside
+    # are unchanged, and gamma's floor still moves with beta (a polish at the edge
+    # keeps a derivative along it).
+    for template in (
+        jh.BoucWen(1.0, 0.1, 1.0, 1.0, 0.5, 0.3, 1.5),
+        jh.StructuralBoucWen(1.0, 0.1, 1.0, 0.5, 0.3, 1.5),
+    ):
+        bounds = {"beta": (-1.0, 2.0), "gamma": (-3.0, 2.0)}
+        plain = jh.ParameterSpace(template, bounds)
+        stable = jh.ParameterSpace(template, bounds, stable_shape=True)
+        points = jax.random.uniform(jax.random.key(0), (200, 2))
+        outside = 0
+        for z in points:
+            loose, kept = plain.to_model(z), stable.to_model(z)
+            outside += not jh.is_bibo_stable(*loose.bouc_wen_shape())
+            assert jh.is_bibo_stable(*kept.bouc_wen_shape())
+            if jh.is_bibo_stable(*loose.bouc_wen_shape()):
+                assert float(kept.beta) == float(loose.beta)
+                assert float(kept.gamma) == float(loose.gamma)
+        assert outside > 50
+        edge = stable.to_unit(jnp.array([0.5, -1.0]))  # beta + gamma < 0
+        slope = jax.grad(lambda z, space=stable: space.to_model(z).gamma)(edge)
+        assert float(slope[0]) < 0 and float(slope[1]) == 0
+    with pytest.raises(TypeError, match="stable_shape"):
+        jh.ParameterSpace(TEMPLATE, {"k1": (0.0, 1.0)}, stable_shape="yes")  # pyright: ignore[reportArgumentType]
+
+
 def test_parameter_space_errors():
     with pytest.raises(ValueError, match="not parameters"):
         jh.ParameterSpace(TEMPLATE, {"k9": (0.0, 1.0)})

@@ -245,6 +245,89 @@ def test_gauge_fixing_keeps_the_bouc_wen_force():
         model.replace(D=-1.0).gauge_fixed()
 
 
+def test_pinching_widens_with_the_dissipated_energy():
+    # pinch_spread = 0 is the fixed-width slip-lock exactly; spread > 0 widens it as
+    # energy is dissipated: the first cycle (little energy yet) is nearly the same,
+    # the last ones are pinched over a wider range of z.
+    x = _protocol()
+    path = jh.Recording.quasi_static(x, x).input_path()
+    pinched = _truth(x).replace(pinch=0.8, pinch_width=0.1, pinch_rate=5.0)
+    solver = jh.RK4(substeps=4)
+    fixed = np.asarray(jh.simulate(pinched, path, solver))
+    np.testing.assert_array_equal(
+        jh.simulate(pinched.replace(pinch_spread=0.0), path, solver), fixed
+    )
+    widening = np.asarray(jh.simulate(pinched.replace(pinch_spread=0.5), path, solver))
+    scale = np.max(np.abs(fixed))
+    first = slice(0, 160)  # the first level's two cycles
+    last = slice(x.size - 161, x.size - 1)
+    early = np.max(np.abs(widening[first] - fixed[first])) / scale
+    late = np.max(np.abs(widening[last] - fixed[last])) / scale
+    assert late > 0.05 and late > 10 * early
+
+
+def test_a_loop_that_never_saturates_pinches_where_its_z_goes():
+    # beta + gamma ~ 0: zu is far beyond any z the test reaches. The pinching's
+    # zu is capped at the z whose hysteretic force is the record's max|F|, not at
+    # max|x| alone (which is 40x beyond it here).
+    x = 40.0 * _protocol() / 8
+    path = jh.Recording.quasi_static(x, x).input_path()
+    base = jh.StructuralBoucWen(2.0, 0.1, 1.0, 0.05, -0.0499, 1.0)
+    force = 4.0
+    model = jh.StructuralBoucWen.around(base, path, force)
+    reach = force / (2.0 * (1 - 0.1))
+    assert float(model.reach()) == pytest.approx(reach)
+    assert float(model.saturation()) == pytest.approx(reach)
+    assert float(model.displacement_scale) == pytest.approx(40.0)
+    unset = jh.StructuralBoucWen(2.0, 0.1, 1.0, 0.3, 0.2, 1.5)
+    assert float(unset.saturation()) == pytest.approx((1 / 0.5) ** (1 / 1.5))
+
+
+def test_structural_refits_stay_in_table_2():
+    # A restoring force that stiffens without bound (beta + gamma < 0: outside
+    # Table 2), recorded with noise. Refitted freely, the structural model follows
+    # it out of Table 2; the structural family keeps every refit inside (an
+    # element that saturates), at the edge the data push it to.
+    from jaxhyst._diagnose._effects.base import RefitScales
+    from jaxhyst._diagnose._refit import RefitSettings, refit
+
+    class Unconstrained(jh.StructuralFamily):
+        stable_fits = False
+
+    x = _protocol(levels=(1, 2, 3, 4), per_cycle=60)
+    path = jh.Recording.quasi_static(x, x).input_path()
+    hardening = jh.StructuralBoucWen(10.0, 0.05, 1.0, 0.2, -0.35, 1.0)
+    recording, _ = _record(x, jh.StructuralBoucWen.around(hardening, path, 1.0))
+    start = jh.StructuralBoucWen.around(
+        jh.StructuralBoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 1.0),
+        path,
+        float(np.max(np.abs(recording.y))),
+    )
+    settings = RefitSettings(max_steps=40, swarm=None, stride=1)
+    scales = RefitScales(1.0, float(recording.t[-1]), {})
+    free = ["k", "alpha", "beta", "gamma"]
+
+    def refitted(family):
+        return refit(
+            family,
+            start,
+            free,
+            path,
+            jax.numpy.asarray(recording.y),
+            jax.numpy.ones(x.size),
+            jh.RK4(substeps=4),
+            scales,
+            settings,
+        )
+
+    loose = refitted(Unconstrained())
+    assert not jh.is_bibo_stable(*loose.bouc_wen_shape())
+    kept = refitted(jh.StructuralFamily())
+    assert jh.is_bibo_stable(*kept.bouc_wen_shape())
+    # At the edge the data push it to (started at beta + gamma = 0.5).
+    assert 0 < float(kept.beta + kept.gamma) < 0.01
+
+
 def test_two_effects_that_fail_alone_are_refitted_as_a_pair():
     # The structural suite's case 10 (benchmarks/structural_suite.py --cases 1): a
     # ductility-driven stiffness degradation and a slip gap under coloured noise,

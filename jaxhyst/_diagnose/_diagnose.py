@@ -274,6 +274,7 @@ def _base_fit(
                 weights=weights,
                 analyse=False,
                 progress=progress,
+                stable_only=ctx.family.stable_fits,
                 throw=False,
                 **options,
             )
@@ -336,6 +337,7 @@ def _windowed_start(
             weights=weights,
             analyse=False,
             progress=progress,
+            stable_only=ctx.family.stable_fits,
             throw=False,
         )
         residual = (jnp.asarray(first.y) - jnp.asarray(fit.predicted)) * weights

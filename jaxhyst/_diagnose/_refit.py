@@ -58,7 +58,13 @@ def refit_space(
         bounds[name] = chosen
     log = [p for e in family.catalogue for p in e.log_scaled if p in names]
     frozen = [n for n in names if n not in free]
-    return ParameterSpace(model, bounds, log_scale=log, frozen=frozen)
+    return ParameterSpace(
+        model,
+        bounds,
+        log_scale=log,
+        frozen=frozen,
+        stable_shape=family.stable_fits,
+    )
 
 
 class RefitSettings(eqx.Module):
@@ -92,7 +98,7 @@ def refit(
     not computed."""
     model = model.held_at_zero(idle_gains(family, model, free))
     space = refit_space(family, model, free, scales)
-    problem = Problem(space, inputs, measured, solver, weights)
+    problem = Problem(space, inputs, measured, solver, weights, family.stable_fits)
     stride = settings.stride
     if stride > 1:
         problem = decimated(problem, stride)
@@ -242,13 +248,15 @@ class ActiveProblem(eqx.Module):
         return residuals - self.basis @ (self.basis.T @ residuals)
 
     def rmse(self, z):
+        full = self.full(z)
         if self.basis is None:
-            return self.problem.rmse(self.full(z))
+            return self.problem.rmse(full)
         residuals = self.residuals(z)
         weights = self.problem.weights
         weight = residuals.size if weights is None else jnp.sum(weights**2)
         squared = jnp.sum(residuals**2)
-        return self.problem.output_scale * jnp.sqrt(squared / weight)
+        value = self.problem.output_scale * jnp.sqrt(squared / weight)
+        return self.problem.admissible(full, value)
 
     def solved(self, z) -> jax.Array:
         """Every coordinate of the space: the free ones from `z`, the additive ones

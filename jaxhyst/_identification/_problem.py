@@ -79,12 +79,18 @@ class Problem(eqx.Module):
 
         weights = jnp.ones_like(self.measured) if self.weights is None else self.weights
         squared = jnp.sum(_over_records(total, self.inputs, self.measured, weights))
-        value = jnp.sqrt(squared / jnp.sum(weights**2))
-        if self.stable_only:
-            shape = model.bouc_wen_shape()
-            stable = is_bibo_stable(shape.A, shape.beta, shape.gamma, shape.n, shape.D)
-            value = jnp.where(stable, value, jnp.inf)
-        return value
+        return self.admissible(z, jnp.sqrt(squared / jnp.sum(weights**2)))
+
+    def admissible(
+        self, z: Float[Array, " d"], value: Float[Array, ""]
+    ) -> Float[Array, ""]:
+        """`value` (a loss at `z`), or +inf when `stable_only` and the model at `z`
+        lies outside Table 2's BIBO-stable classes."""
+        if not self.stable_only:
+            return value
+        shape = self.space.to_model(z).bouc_wen_shape()
+        stable = is_bibo_stable(shape.A, shape.beta, shape.gamma, shape.n, shape.D)
+        return jnp.where(stable, value, jnp.inf)
 
 
 def stack_problems(problems: list[Problem]) -> Problem:

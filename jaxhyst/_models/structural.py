@@ -10,8 +10,11 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   Phi = A - nu*(beta*sign(xdot*z) + gamma)*|z|^n (OpenSees `BoucWen`'s deltaNu, deltaEta);
 - pinching (Baber-Noori, Foliente's BWBN): zdot *= h(z) with
   h = 1 - zeta1*exp(-((z*sign(xdot) - q*zu)/zeta2)^2), zeta1 = pinch*(1 - exp(-pinch_rate*e)),
-  zeta2 = pinch_width*zu*(pinch_lambda + zeta1), zu = (1/(beta + gamma))^(1/n)
-  (OpenSees `BWBN` with zetas = pinch, q = pinch_shift, p = pinch_rate, Shi = pinch_width*zu);
+  zeta2 = (pinch_width + pinch_spread*e)*zu*(pinch_lambda + zeta1),
+  zu = (1/(beta + gamma))^(1/n): the slip region widens as energy is dissipated (a
+  slip that grows with the largest displacement so far, as in RC members and bolted
+  connections) (OpenSees `BWBN` with zetas = pinch, q = pinch_shift, p = pinch_rate,
+  Shi = pinch_width*zu, deltaShi = pinch_spread*zu);
 - asymmetry (push and pull differ): the shape term (beta*sign(xdot*z) + gamma)*|z|^n is
   multiplied by 1 + yield_skew*sign(z) (the two sides yield at different levels,
   zu*(1 + yield_skew*sign(z))^(-1/n), with the same loop shape) and
@@ -20,8 +23,9 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   (Legendre terms), s the time in [-1, 1]
   (load-cell offsets and slow drift that do not follow the mechanics).
 
-The pinching's zu is capped at the record's max|x| (`displacement_scale`), where
-OpenSees has no cap: such a model exports to BWBN inexactly.
+The pinching's zu is capped at what the record's z can reach (`reach`: its max|x|,
+and the z whose hysteretic force is its max|F|), where OpenSees has no cap: such a
+model exports to BWBN inexactly.
 The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the record,
 set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
 about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
@@ -72,6 +76,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     pinch_shift: Float[Array, ""] = _field(0.1)
     pinch_width: Float[Array, ""] = _field(0.3)
     pinch_rate: Float[Array, ""] = _field(5.0)
+    pinch_spread: Float[Array, ""] = _field(0.0)
     yield_skew: Float[Array, ""] = _field(0.0)
     stiffness_skew: Float[Array, ""] = _field(0.0)
     offset: Float[Array, ""] = _field(0.0)
@@ -81,6 +86,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     pinch_lambda: Float[Array, ""] = _normaliser(0.5)
     energy_scale: Float[Array, ""] = _normaliser(1.0)
     displacement_scale: Float[Array, ""] = _normaliser(1e30)
+    force_scale: Float[Array, ""] = _normaliser(1e30)
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
@@ -102,6 +108,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
+        "pinch_spread",
         "yield_skew",
         "stiffness_skew",
         "offset",
@@ -150,6 +157,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
             pinch_lambda=base.pinch_lambda,
             energy_scale=jnp.maximum(output_scale * jnp.max(jnp.abs(x)), 1e-30),
             displacement_scale=jnp.maximum(jnp.max(jnp.abs(x)), 1e-30),
+            force_scale=jnp.maximum(output_scale, 1e-30),
             time_center=(inputs.t0 + inputs.t1) / 2,
             time_scale=(inputs.t1 - inputs.t0) / 2,
             smoothing=base.smoothing,
@@ -163,11 +171,21 @@ class StructuralBoucWen(AbstractGainHoldingModel):
 
     def saturation(self) -> Float[Array, ""]:
         """zu = (1/(beta + gamma))^(1/n): where the undegraded hysteretic
-        displacement saturates (OpenSees BWBN's zu), capped at `displacement_scale`
-        (the record's max|x|, set by `around`): a loop that does not saturate within
-        the test (beta + gamma <= 0 or zu beyond max|x|) still has a place to pinch."""
+        displacement saturates (OpenSees BWBN's zu), capped at `reach()` (what the
+        record's max|x| and max|F| allow): a loop that does not saturate within the
+        test (beta + gamma <= 0, or zu beyond that reach) still pinches where its z
+        goes. Capped by max|x| alone, a loop that never saturated placed its slip
+        beyond every z it reached (chiu: zu capped at 330 mm, z within 41 mm)."""
         total = jnp.maximum(self.beta + self.gamma, 1e-30)
-        return jnp.minimum(jnp.exp(-jnp.log(total) / self.n), self.displacement_scale)
+        return jnp.minimum(jnp.exp(-jnp.log(total) / self.n), self.reach())
+
+    def reach(self) -> Float[Array, ""]:
+        """The largest hysteretic displacement the record can show: the smaller of
+        its max|x| (`displacement_scale`) and the z whose hysteretic force
+        (1 - alpha)*k*z is its max|F| (`force_scale`; 1 - alpha taken as at least
+        0.1). Both are set by `around`; unset, nothing is capped."""
+        stiffness = jnp.abs(self.k) * jnp.maximum(1 - self.alpha, 0.1)
+        return jnp.minimum(self.displacement_scale, self.force_scale / stiffness)
 
     def vector_field(self, t, state, drive):
         s = self.smoothing
@@ -184,7 +202,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         if not self._holds("pinch"):
             zu = self.saturation()
             zeta1 = self.pinch * (1 - jnp.exp(-self.pinch_rate * energy))
-            zeta2 = self.pinch_width * zu * (self.pinch_lambda + zeta1)
+            width = self.pinch_width + self.pinch_spread * energy
+            zeta2 = width * zu * (self.pinch_lambda + zeta1)
             zeta2 = jnp.where(jnp.abs(zeta2) > 1e-30, zeta2, 1e-30)
             distance = (z * s.sign(xdot) - self.pinch_shift * zu) / zeta2
             zdot = (1 - zeta1 * jnp.exp(-(distance**2))) * zdot
