@@ -1,5 +1,7 @@
 """Table 2 of the paper: which Bouc-Wen shape parameters give a BIBO-stable operator."""
 
+from typing import Any
+
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Bool, Float
@@ -86,4 +88,25 @@ def bibo_stability(model: AbstractHysteresisModel) -> StabilityReport:
         False,
         f"{values}: with A < 0 Table 2 needs (beta-gamma > 0 and beta+gamma >= 0) "
         f"or (beta+gamma < 0 and beta >= 0); here beta+gamma={s:g}, beta-gamma={d:g}",
+    )
+
+
+def stability_json(model: AbstractHysteresisModel) -> dict[str, Any] | None:
+    """`bibo_stability(model)` as JSON, `{"stable": bool, "reason": str}`, or None
+    for a model that defines no Bouc-Wen shape (`bouc_wen_shape`)."""
+    if type(model).bouc_wen_shape is AbstractHysteresisModel.bouc_wen_shape:
+        return None
+    report = bibo_stability(model)
+    return {"stable": report.stable, "reason": report.reason}
+
+
+def stability_warning(model: AbstractHysteresisModel) -> str | None:
+    """A sentence for reports when `model` lies outside Table 2's BIBO-stable
+    classes (None inside them, or without a Bouc-Wen shape)."""
+    record = stability_json(model)
+    if record is None or record["stable"]:
+        return None
+    return (
+        "outside Table 2's BIBO-stable classes: a bounded input may drive its "
+        f"hysteretic state without bound beyond the recorded range ({record['reason']})"
     )

@@ -348,6 +348,8 @@ def test_fit_writes_json_figures_and_summary(fitted):
     assert data["timing"]["total_s"] > 0
     assert data["metrics"]["nrmsd"] < 0.01  # a clean record fits well
     assert "standard_errors" in data["identifiability"]
+    stability = jh.bibo_stability(jh.load_model(out / "fit.json").model)
+    assert data["stability"] == {"stable": stability.stable, "reason": stability.reason}
     for name in ("fit_loop", "fit_time_history", "fit_error_trend"):
         assert (out / "figures" / f"{name}.png").read_bytes().startswith(PNG_SIGNATURE)
     for word in ("parameters:", "k1", "RMSE", "MAD", "MRD", "MAE", "NRMSD", "timing:"):

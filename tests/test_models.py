@@ -1,3 +1,4 @@
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -102,6 +103,34 @@ def test_unstable_set_grows_without_bound():
         model, _sine(10.0, rate=50.0), return_state=True, throw=False
     )
     assert not np.all(np.isfinite(states)) or float(jnp.max(jnp.abs(states))) > 1e3
+
+
+def test_fit_and_diagnosis_reports_say_when_a_model_leaves_table_2():
+    from jaxhyst._report._console import fit_summary
+    from jaxhyst._stability import stability_json, stability_warning
+
+    unstable = jh.BoucWen(1.0, 0.5, 1.0, 1.0, -0.2, -0.6, 1.5)
+    report = jh.bibo_stability(unstable)
+    assert stability_json(unstable) == {"stable": False, "reason": report.reason}
+    warning = stability_warning(unstable)
+    assert warning is not None and "outside Table 2" in warning
+    assert report.reason in warning
+    stable = jh.BoucWen(1.0, 0.5, 1.0, 1.0, 0.6, 0.4, 1.5)
+    assert stability_json(stable) == {
+        "stable": True,
+        "reason": jh.bibo_stability(stable).reason,
+    }
+    assert stability_warning(stable) is None
+    # In a fit's summary and JSON.
+    path = _sine(2.0, rate=50.0)
+    recording = jh.Recording(
+        np.asarray(path.times), np.asarray(path.values), np.zeros(path.num_samples)
+    )
+    fit = jh.Fit(unstable, jnp.zeros(path.num_samples), {}, None, None, None, {})
+    assert fit.to_dict()["stability"]["stable"] is False
+    metrics = dict.fromkeys(("rmse", "mad", "mrd", "mae", "nrmsd"), 0.0)
+    fit = eqx.tree_at(lambda f: f.metrics, fit, metrics)
+    assert f"stability: {warning}" in fit_summary(fit, recording)
 
 
 def test_stability_needs_positive_d_and_n_at_least_one():

@@ -6,6 +6,7 @@ import equinox as eqx
 import numpy as np
 
 from .._models.base import AbstractHysteresisModel
+from .._stability import stability_json
 from ._remainder import Remainder
 
 
@@ -341,6 +342,7 @@ class Diagnosis(eqx.Module):
                 "rmse": self.final["rmse"],
                 "metrics": self.final,
                 "parameters": self.final_parameters,
+                "stability": stability_json(self.final_model),
             },
             "ambiguities": [a.statement for a in self.ambiguities],
             "undecided": sorted(self.undecided),

@@ -27,6 +27,7 @@ from .._placement import moved_to, running_on, serial_device
 from .._program_store import stored_jit
 from .._recording import Recording
 from .._simulate import RK4, AbstractSimulationSolver
+from .._stability import stability_json
 from .._status import RESULTS, raise_unless_successful, status_message, status_name
 from .._swarm import MPSO, SwarmResult, run_swarm
 from ._identifiability import Identifiability, identifiability_of, output_jacobian
@@ -122,6 +123,7 @@ class Fit(eqx.Module):
         out["identifiability"] = (
             self.identifiability.to_dict() if self.identifiability is not None else {}
         )
+        out["stability"] = stability_json(self.model)
         return out
 
 

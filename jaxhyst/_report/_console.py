@@ -5,6 +5,7 @@ import math
 from .._diagnose._results import Diagnosis
 from .._identification._identify import Fit
 from .._recording import Recording
+from .._stability import stability_warning
 from .._status import status_message, status_name
 from ._common import (
     advice_text,
@@ -30,6 +31,9 @@ def fit_summary(fit: Fit, recording: Recording) -> str:
     status = status_name(fit.result)
     if status != "successful":
         lines.append(f"status: {status}: {status_message(fit.result)}")
+    warning = stability_warning(fit.model)
+    if warning is not None:
+        lines.append(f"stability: {warning}")
     lines.append("parameters:")
     singular = False
     for name in names:
@@ -104,6 +108,9 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
             f"{number(scale * change.final)}{s} ({change.percent_text} vs the base "
             "model)"
         )
+    warning = stability_warning(diagnosis.final_model)
+    if warning is not None:
+        lines.append(f"final model stability: {warning}")
     for item in diagnosis.unexplained:
         lines.append(f"unexplained: {item.description}; it resembles {item.resembles}")
     for item in diagnosis.cannot_show:
