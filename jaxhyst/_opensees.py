@@ -17,8 +17,7 @@ equations as `StructuralBoucWen`, whose energy is divided by `energy_scale`. Hen
 - `BoucWen` (no pinching): deltaA = 0, deltaNu = strength_degradation/energy_scale,
   deltaEta = stiffness_degradation/energy_scale;
 - `BWBN` (pinching): q = pinch_shift, zetas = pinch, p = pinch_rate/energy_scale,
-  Shi = pinch_width*zu, deltaShi = pinch_spread*zu/energy_scale, lamda =
-  pinch_lambda; it has no nu, eta, so
+  Shi = pinch_width*zu, deltaShi = 0, lamda = pinch_lambda; it has no nu, eta, so
   degradation is dropped when both are on;
 - neither has asymmetry (yield_skew, stiffness_skew) or drift (offset, trend, curvature,
   wander).
@@ -66,7 +65,6 @@ _KNOWN = frozenset(
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
-        "pinch_spread",
         "yield_skew",
         "stiffness_skew",
     )
@@ -201,8 +199,7 @@ def opensees_material(
     Without pinching it is `BoucWen` (deltaNu, deltaEta = strength_degradation,
     stiffness_degradation divided by energy_scale; deltaA = 0); with pinching it is
     `BWBN` (zetas = pinch, q = pinch_shift, p = pinch_rate/energy_scale, Shi =
-    pinch_width*zu, deltaShi = pinch_spread*zu/energy_scale, lamda = pinch_lambda),
-    which has no degradation: with
+    pinch_width*zu, deltaShi = 0, lamda = pinch_lambda), which has no degradation: with
     both on, degradation is dropped. Asymmetry and drift are dropped when on, and a
     smoothed sign (OpenSees uses the exact one) makes the export inexact. Parameters
     count as on when non-zero. tol = 1e-10*zu, maxNumIter = 100.
@@ -314,7 +311,7 @@ def opensees_material(
             p["pinch"],
             p["pinch_rate"] / energy_scale,
             p["pinch_width"] * zu,
-            p["pinch_spread"] * zu / energy_scale,
+            0.0,
             pinch_lambda,
             tol,
             _MAX_ITER,

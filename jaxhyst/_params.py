@@ -16,10 +16,8 @@ from ._models.base import AbstractHysteresisModel, DataScales
 from ._recording import Recording
 
 
-# Exponents below 1 leave Table 2's stable classes (and |h|^n loses its derivative);
-# a pinching's slip region cannot narrow as energy is dissipated (its width would
-# pass through zero).
-_HARD_FLOORS = {"n": 1.0, "nu": 1.0, "pinch_spread": 0.0}
+# Exponents below 1 leave Table 2's stable classes (and |h|^n loses its derivative).
+_HARD_FLOORS = {"n": 1.0, "nu": 1.0}
 # With `stable_shape`, beta + gamma >= this share of beta: strictly inside Table 2.
 _STABLE_MARGIN = 1e-6
 

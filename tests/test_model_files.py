@@ -31,7 +31,6 @@ _STRUCTURAL: dict[str, Any] = {
     "stiffness_degradation": 0.05,
     "pinch": 0.2,
     "pinch_shift": 0.15,
-    "pinch_spread": 0.07,
     "yield_skew": 0.05,
     "stiffness_skew": 0.02,
     "offset": 0.01,

@@ -10,11 +10,8 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   Phi = A - nu*(beta*sign(xdot*z) + gamma)*|z|^n (OpenSees `BoucWen`'s deltaNu, deltaEta);
 - pinching (Baber-Noori, Foliente's BWBN): zdot *= h(z) with
   h = 1 - zeta1*exp(-((z*sign(xdot) - q*zu)/zeta2)^2), zeta1 = pinch*(1 - exp(-pinch_rate*e)),
-  zeta2 = (pinch_width + pinch_spread*e)*zu*(pinch_lambda + zeta1),
-  zu = (1/(beta + gamma))^(1/n): the slip region widens as energy is dissipated (a
-  slip that grows with the largest displacement so far, as in RC members and bolted
-  connections) (OpenSees `BWBN` with zetas = pinch, q = pinch_shift, p = pinch_rate,
-  Shi = pinch_width*zu, deltaShi = pinch_spread*zu);
+  zeta2 = pinch_width*zu*(pinch_lambda + zeta1), zu = (1/(beta + gamma))^(1/n)
+  (OpenSees `BWBN` with zetas = pinch, q = pinch_shift, p = pinch_rate, Shi = pinch_width*zu);
 - asymmetry (push and pull differ): the shape term (beta*sign(xdot*z) + gamma)*|z|^n is
   multiplied by 1 + yield_skew*sign(z) (the two sides yield at different levels,
   zu*(1 + yield_skew*sign(z))^(-1/n), with the same loop shape) and
@@ -76,7 +73,6 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     pinch_shift: Float[Array, ""] = _field(0.1)
     pinch_width: Float[Array, ""] = _field(0.3)
     pinch_rate: Float[Array, ""] = _field(5.0)
-    pinch_spread: Float[Array, ""] = _field(0.0)
     yield_skew: Float[Array, ""] = _field(0.0)
     stiffness_skew: Float[Array, ""] = _field(0.0)
     offset: Float[Array, ""] = _field(0.0)
@@ -108,7 +104,6 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
-        "pinch_spread",
         "yield_skew",
         "stiffness_skew",
         "offset",
@@ -202,8 +197,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         if not self._holds("pinch"):
             zu = self.saturation()
             zeta1 = self.pinch * (1 - jnp.exp(-self.pinch_rate * energy))
-            width = self.pinch_width + self.pinch_spread * energy
-            zeta2 = width * zu * (self.pinch_lambda + zeta1)
+            zeta2 = self.pinch_width * zu * (self.pinch_lambda + zeta1)
             zeta2 = jnp.where(jnp.abs(zeta2) > 1e-30, zeta2, 1e-30)
             distance = (z * s.sign(xdot) - self.pinch_shift * zu) / zeta2
             zdot = (1 - zeta1 * jnp.exp(-(distance**2))) * zdot

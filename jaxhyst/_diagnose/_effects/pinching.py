@@ -18,9 +18,7 @@ from .base import (
 class Pinching(AbstractEffect):
     """`StructuralBoucWen`'s Baber-Noori / BWBN slip-lock: the hysteretic rate
     drops near z = pinch_shift*zu on reloading, by up to `pinch` (grown in with the
-    dissipated energy at `pinch_rate`, over a width set by `pinch_width` that widens
-    with the dissipated energy at `pinch_spread`: the slip grows as the test goes
-    on)."""
+    dissipated energy at `pinch_rate`, over a width set by `pinch_width`)."""
 
     name: ClassVar[str] = "pinching"
     parameters: ClassVar[tuple[str, ...]] = (
@@ -28,7 +26,6 @@ class Pinching(AbstractEffect):
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
-        "pinch_spread",
     )
     meaning: ClassVar[str] = (
         "the loop narrows near zero force on reloading (slip-lock: cracks closing, "
@@ -39,7 +36,6 @@ class Pinching(AbstractEffect):
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
-        "pinch_spread",
     )
 
     def bounds(self, name, value, scales: RefitScales):
@@ -48,27 +44,18 @@ class Pinching(AbstractEffect):
             "pinch_shift": (-0.5, 1.5),
             "pinch_width": (0.02, 3.0),
             "pinch_rate": (0.05, 500.0),
-            # Width gained per max|F|*max|x| of dissipated energy: 2 multiplies
-            # the width many times over within one large cycle.
-            "pinch_spread": (0.0, 2.0),
         }.get(name)
 
     def starting_points(self, current, step, scales):
         # The score only sees `pinch` at the default shape; a pinched loop's shape
-        # (where, how wide, how soon, how fast it widens) is far from linear, so a
-        # grid is added: a fixed width, and one that grows from a narrow start.
+        # (where, how wide, how soon) is far from linear, so a grid is added.
         models = super().starting_points(current, step, scales)
         grid = itertools.product(
-            (0.3, 0.6, 0.85),
-            (0.0, 0.25, 0.5),
-            ((0.15, 0.0), (0.4, 0.0), (0.05, 0.05)),
-            (1.0, 20.0),
+            (0.3, 0.6, 0.85), (0.0, 0.25, 0.5), (0.15, 0.4), (1.0, 20.0)
         )
         models += [
-            current.replace(
-                pinch=p, pinch_shift=q, pinch_width=w, pinch_spread=g, pinch_rate=r
-            )
-            for p, q, (w, g), r in grid
+            current.replace(pinch=p, pinch_shift=q, pinch_width=w, pinch_rate=r)
+            for p, q, w, r in grid
         ]
         return models
 
@@ -103,8 +90,6 @@ class Pinching(AbstractEffect):
             "pinch_shift": "zu",
             "pinch_width": "zu",
             "pinch_rate": ENERGY_UNIT,
-            # Width (in zu) gained per unit of the dissipated energy.
-            "pinch_spread": "zu" + ENERGY_UNIT.removeprefix("1"),
         }
 
     def reading(self, values, errors, units):
@@ -113,10 +98,9 @@ class Pinching(AbstractEffect):
 
         shape = (
             f"near z = {q('pinch_shift')} on reloading (zu: the hysteretic "
-            f"saturation displacement), over a width {q('pinch_width')} + "
-            f"{q('pinch_spread')}*e times (lambda + zeta1), grown in as "
-            f"1 - exp(-pinch_rate*e) with e the dissipated energy (pinch_rate = "
-            f"{q('pinch_rate')})"
+            f"saturation displacement), over a width {q('pinch_width')} times "
+            f"(lambda + zeta1), grown in as 1 - exp(-pinch_rate*e) with e the "
+            f"dissipated energy (pinch_rate = {q('pinch_rate')})"
         )
         if values["pinch"] == 0:
             return f"no slip-lock (pinch = 0), so its shape is inert: {shape}"
