@@ -17,7 +17,8 @@ references the fits never saw, in the plant's output range:
 
 all at 1 kHz, 10 % to 90 % of the plant's stroke under the training drive range. The
 drive goes through the TRUE plant (`simulate(case.truth, drive)`); the tracking error
-is the plant's output minus the reference. "none" is the uncompensated drive: the
+is the plant's output minus the reference; its spectrum (`jh.error_spectrum`, octave
+bands) says where in frequency it lies. "none" is the uncompensated drive: the
 reference scaled by the straight line fitted to the training record (u against y).
 
     python benchmarks/compensation.py [--effects clean asymmetry creep ...] [--json OUT]
@@ -71,12 +72,26 @@ def corrected_fit(recording, key):
     return jh.identify_corrected(recording, key=key)[0].model
 
 
-def tracking(y, reference, stroke):
+def tracking(t, y, reference, stroke):
+    """RMS and maximum tracking error in % of the stroke, and where the error lies
+    in frequency (`jh.error_spectrum`: octave bands; `dominant`: the band with the
+    largest share of the mean square)."""
     error = y - reference
+    spectrum = jh.error_spectrum(t, error, stroke=stroke)
+    low, high, share = spectrum.dominant()
     return {
         "rms_percent": float(100 * np.sqrt(np.mean(error**2)) / stroke),
         "max_percent": float(100 * np.max(np.abs(error)) / stroke),
+        "dominant": {"low_hz": low, "high_hz": high, "share": share},
+        "spectrum": spectrum.to_json(),
     }
+
+
+def band(cell):
+    """'0.4-0.8 Hz 84 %': the cell's dominant error band and its share."""
+    d = cell["dominant"]
+    where = "mean" if d["high_hz"] == 0 else f"{d['low_hz']:.2g}-{d['high_hz']:.2g} Hz"
+    return f"{where} {100 * d['share']:.0f}%"
 
 
 def run_case(effects, seed):
@@ -116,7 +131,7 @@ def run_case(effects, seed):
         row = {}
         none = np.clip(intercept + slope * reference, lo, hi)
         y = jh.simulate(case.truth, jh.InputPath(0.0, 1 / RATE, none), case.solver)
-        row["none"] = tracking(np.asarray(y), reference, stroke)
+        row["none"] = tracking(t, np.asarray(y), reference, stroke)
         for label, model in models.items():
             t0 = time.perf_counter()
             result = jh.compensate(model, t, reference, limits=(lo, hi), throw=False)
@@ -125,7 +140,7 @@ def run_case(effects, seed):
                 case.truth, jh.InputPath(0.0, 1 / RATE, result.drive), case.solver
             )
             row[label] = {
-                **tracking(np.asarray(y), reference, stroke),
+                **tracking(t, np.asarray(y), reference, stroke),
                 "method": result.method,
                 "samples_at_limit": result.tracking()["samples_at_limit"],
                 "seconds": seconds,
@@ -163,12 +178,14 @@ def main() -> None:
         )
         for name, row in result["references"].items():
             cells = "  ".join(
-                f"{k} {v['rms_percent']:.3f}/{v['max_percent']:.2f}"
+                f"{k} {v['rms_percent']:.3f}/{v['max_percent']:.2f} ({band(v)})"
                 + (f" [{v['seconds']:.2f} s]" if "seconds" in v else "")
                 for k, v in row.items()
             )
             print(
-                f"  {name:<10} RMS/max % of stroke [compensate s]: {cells}", flush=True
+                f"  {name:<10} RMS/max % of stroke (dominant error band) "
+                f"[compensate s]: {cells}",
+                flush=True,
             )
     common.write_results(args.json, cases=results)
 

@@ -64,6 +64,10 @@ from ._diagnose._results import (
     Unexplained as Unexplained,
     Validation as Validation,
 )
+from ._error_spectrum import (
+    ErrorSpectrum as ErrorSpectrum,
+    error_spectrum as error_spectrum,
+)
 from ._evaluate import (
     default_solver as default_solver,
     predict as predict,

@@ -34,6 +34,7 @@ import numpy as np
 import optax
 from jaxtyping import Array, ArrayLike, Bool, Float
 
+from ._error_spectrum import ErrorSpectrum, error_spectrum
 from ._inputs import InputPath
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
@@ -85,6 +86,14 @@ class Compensation(eqx.Module):
             "max_error_percent_of_stroke": peak * scale,
             "samples_at_limit": int(np.count_nonzero(np.asarray(self.at_limit))),
         }
+
+    def error_spectrum(self) -> ErrorSpectrum:
+        """Where the predicted tracking error lies in frequency: its RMS in octave
+        bands, with percentages of the reference's stroke (see `jh.error_spectrum`;
+        apply that to a measured error to see where the stage itself misses)."""
+        return error_spectrum(
+            self.times, self.error, stroke=float(np.ptp(np.asarray(self.reference)))
+        )
 
 
 def _lags(model: AbstractHysteresisModel) -> str | None:

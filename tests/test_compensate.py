@@ -229,6 +229,7 @@ def test_compensate_command_writes_the_drive_and_report(tmp_path, capsys):
     np.testing.assert_allclose(table[:, 2], direct.predicted, rtol=0, atol=1e-20)
     text = report.read_text()
     assert "| RMS |" in text and "compensation_drive.png" in text
+    assert "| band | RMS | % of stroke | share of mean square |" in text
     assert (report.parent / "compensation_error.png").exists()
     assert "data:image/png;base64," in (report.parent / "report.html").read_text()
     # Outputs are not replaced without --force; a reference beyond the limits warns.

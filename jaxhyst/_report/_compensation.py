@@ -82,9 +82,35 @@ def _blocks(
         Paragraph(
             f"Samples out of reach inside the limits: {tracking['samples_at_limit']}."
         ),
+        Paragraph(
+            "Where the predicted error lies in frequency (its RMS in octave bands, "
+            "the bands holding at least 1 % of its mean square; the squares add up "
+            "to the whole RMS):"
+        ),
+        _spectrum_table(compensation, scale=scale, unit=s),
         Image(figures["drive"], figures["drive"].name, "drive and output"),
         Image(figures["error"], figures["error"].name, "tracking error"),
     ]
+
+
+def _spectrum_table(compensation: Compensation, *, scale: float, unit: str) -> Table:
+    spectrum = compensation.error_spectrum()
+    power = spectrum.rms**2
+    total = float(np.sum(power))
+    rows = []
+    for lo, hi, rms, percent, p in zip(
+        spectrum.low,
+        spectrum.high,
+        spectrum.rms,
+        spectrum.percent_of_stroke(),
+        power,
+    ):
+        if total > 0 and p >= 0.01 * total:
+            band = "mean (0 Hz)" if hi == 0 else f"{lo:.3g} to {hi:.3g} Hz"
+            rows.append(
+                [band, f"{scale * rms:.4g}{unit}", f"{percent:.3g}", f"{p / total:.0%}"]
+            )
+    return Table(["band", "RMS", "% of stroke", "share of mean square"], rows, "llll")
 
 
 def write_compensation_report(
