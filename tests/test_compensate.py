@@ -75,6 +75,13 @@ def test_out_of_reach_references_are_flagged_not_hidden():
             "phi = 0.01.*OptimisedDrive",
         ),
         (PAPER, jh.DynamicInversion(), "no stage dynamics.*PerSampleInversion"),
+        (
+            jh.ExtendedPiezo.around(PAPER, _path(100.0))
+            .replace(phi=-0.02)
+            .with_dynamics(20.0, 0.4),
+            jh.DynamicInversion(),
+            "phi = -0.02.*OptimisedDrive",
+        ),
     ],
 )
 def test_a_method_refuses_models_it_cannot_invert(model, method, words):
@@ -142,6 +149,25 @@ def test_lagging_models_get_a_drive_ahead_of_time(model, solver, method, expecte
     assert np.all((np.asarray(result.drive) > 0.0) & (np.asarray(result.drive) < 4.0))
 
 
+@pytest.mark.parametrize("phi", [-0.02, 0.02])
+def test_a_time_shifted_hysteresis_is_inverted_without_shifting_the_linear_term(phi):
+    # y = k1*u(t) + k2*h[u(t + phi)]: only the hysteresis reads the shifted drive.
+    # On ramps between holds, shifting the whole drive by phi mistimes k1*u (the
+    # larger part of the output) by 20 ms. The fixed-point passes put the
+    # hysteresis's share in time, so a few L-BFGS steps leave an exact drive.
+    model = jh.CorrectedPiezoBoucWen.from_piezo(PAPER, phi=phi, eps=0.0)
+    t = np.arange(0.0, 3.0, 1 / 200.0)
+    levels = np.array([0.5, 3.5, 1.0, 3.0, 2.0])[np.minimum((t / 0.6).astype(int), 4)]
+    ramp = np.ones(40) / 40  # 0.2 s ramps
+    made = np.convolve(np.concatenate([np.full(40, levels[0]), levels]), ramp)
+    made = made[40 : 40 + t.size]
+    reference = np.asarray(jh.simulate(model, jh.InputPath(0.0, t[1], made)))
+    method = jh.OptimisedDrive(steps=5)
+    result = jh.compensate(model, t, reference, limits=(0.0, 4.0), method=method)
+    assert result.tracking()["max_error_percent_of_stroke"] < 1e-3
+    np.testing.assert_allclose(result.drive, made, atol=1e-4)
+
+
 def test_compensate_bad_inputs():
     t = np.arange(10) * 0.01
     r = np.zeros(10)
@@ -153,6 +179,10 @@ def test_compensate_bad_inputs():
         jh.compensate(PAPER, t, r[:5], limits=(0.0, 1.0))
     with pytest.raises(ValueError, match="iterations"):
         jh.PerSampleInversion(iterations=0)
+    with pytest.raises(ValueError, match="passes"):
+        jh.OptimisedDrive(passes=-1)
+    with pytest.raises(ValueError, match="rtol"):
+        jh.OptimisedDrive(rtol=2.0)
     with pytest.raises(TypeError, match="method must be"):
         jh.compensate(PAPER, t, r, limits=(0.0, 1.0), method="bisect")  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="jaxhyst model"):
