@@ -322,6 +322,7 @@ def test_a_clean_record_names_nothing():
     assert diagnosis.final_rmse < 1.1 * case.sigma
 
 
+@pytest.mark.slow  # 95 s under load; the lag's arithmetic keeps its fast exactness test
 def test_a_lagged_field_is_named_with_its_lag():
     # A field seen through a 2nd-order driver: the field dependence fitted without
     # its lag fails held-out validation, so it is refitted together with

@@ -34,6 +34,7 @@ def _specimen(eps):
     ]
 
 
+@pytest.mark.slow  # 99 s under load; the several-recordings path keeps the fast command-line test
 def test_two_recordings_are_diagnosed_as_one_specimen():
     slow, fast = _specimen(eps=0.2)
     diagnosis = jh.diagnose([slow, fast], key=jax.random.key(0))

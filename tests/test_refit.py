@@ -125,6 +125,7 @@ def _drifting_structural_problem():
     return family, start, path, jnp.asarray(force), jnp.asarray(weights)
 
 
+@pytest.mark.slow  # 95 s under load (2 cores)
 def test_a_refit_with_additive_terms_reaches_the_joint_least_squares_fit():
     family, start, path, force, weights = _drifting_structural_problem()
     solver = jh.RK4(substeps=2)

@@ -115,6 +115,7 @@ def test_a_large_concealed_pinching_is_named_and_a_clean_test_is_not():
     assert diagnosis.to_dict()["opensees"].startswith("uniaxialMaterial BoucWen 1 ")
 
 
+@pytest.mark.slow  # 66 s under load (2 cores)
 def test_a_better_basin_for_the_base_is_not_credited_to_an_effect():
     # A clean record diagnosed from a poorly fitted base: a candidate's refit (whose
     # short swarm also moves the base parameters) finds the right basin, and without
@@ -307,6 +308,7 @@ def test_structural_refits_stay_in_table_2():
     assert 0 < float(kept.beta + kept.gamma) < 0.01
 
 
+@pytest.mark.slow  # 107 s under load (2 cores)
 def test_two_effects_that_fail_alone_are_refitted_as_a_pair():
     # The structural suite's case 10 (benchmarks/structural_suite.py --cases 1): a
     # ductility-driven stiffness degradation and a slip gap under coloured noise,
