@@ -43,6 +43,7 @@ from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from ._models.extended import ExtendedPiezo
 from ._simulate import RK4, AbstractSimulationSolver, simulate
 from ._status import RESULTS, raise_unless_successful
+from ._uniform import uniform_series
 
 
 class Compensation(eqx.Module):
@@ -493,22 +494,9 @@ def compensate(
             "compensate: method must be PerSampleInversion(), DynamicInversion() or "
             f"OptimisedDrive(), got {type(method).__name__}."
         )
-    t = np.asarray(times, dtype=float)
-    r = np.asarray(reference, dtype=float)
-    if t.ndim != 1 or r.shape != t.shape or t.size < 2:
-        raise ValueError(
-            f"compensate: times and reference must be 1-D of equal length >= 2, got "
-            f"shapes {t.shape} and {r.shape}."
-        )
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(r))):
-        raise ValueError("compensate: times and reference must be finite.")
-    steps = np.diff(t)
-    dt = float(np.mean(steps))
-    if not dt > 0 or np.max(np.abs(steps - dt)) > 1e-6 * dt:
-        raise ValueError(
-            "compensate: times must be uniformly spaced and increasing; resample "
-            "the reference first."
-        )
+    t, r, _ = uniform_series(
+        "compensate", times, reference, name="reference", minimum=2
+    )
     lo, hi = (float(v) for v in limits)
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
         raise ValueError(

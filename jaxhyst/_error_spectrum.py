@@ -14,6 +14,8 @@ import equinox as eqx
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
+from ._uniform import uniform_series
+
 
 class ErrorSpectrum(eqx.Module):
     """A tracking error's RMS in frequency bands.
@@ -78,21 +80,7 @@ def error_spectrum(
     with percentages of `stroke` (the reference's peak-to-peak range): where in
     frequency a tracking error lies. See `ErrorSpectrum`."""
     owner = "error_spectrum"
-    t = np.asarray(times, dtype=float)
-    e = np.asarray(error, dtype=float)
-    if t.ndim != 1 or e.shape != t.shape or t.size < 4:
-        raise ValueError(
-            f"{owner}: times and error must be 1-D of equal length >= 4, got shapes "
-            f"{t.shape} and {e.shape}."
-        )
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(e))):
-        raise ValueError(f"{owner}: times and error must be finite.")
-    steps = np.diff(t)
-    dt = float(np.mean(steps))
-    if not dt > 0 or np.max(np.abs(steps - dt)) > 1e-6 * dt:
-        raise ValueError(
-            f"{owner}: times must be uniformly spaced and increasing; resample first."
-        )
+    _, e, dt = uniform_series(owner, times, error, name="error", minimum=4)
     if not (np.isfinite(stroke) and stroke >= 0):
         raise ValueError(f"{owner}: stroke must be finite and >= 0, got {stroke!r}.")
     n = e.size
