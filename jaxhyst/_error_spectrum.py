@@ -35,7 +35,7 @@ class ErrorSpectrum(eqx.Module):
 
     def __repr__(self) -> str:
         bands = ", ".join(
-            f"{lo:.3g}-{hi:.3g} Hz: {p:.3g} %"
+            ("mean" if hi == 0 else f"{lo:.3g}-{hi:.3g} Hz") + f": {p:.3g} %"
             for lo, hi, p in zip(self.low, self.high, self.percent_of_stroke())
         )
         return f"ErrorSpectrum({bands})"
