@@ -27,6 +27,7 @@ y = k1*u(t) + k2*h[u(t + phi)]), so the drive is not shifted as a whole.
 
 import abc
 import dataclasses
+import numbers
 from typing import ClassVar
 
 import equinox as eqx
@@ -56,7 +57,12 @@ class Compensation(eqx.Module):
     - `at_limit`: samples whose reference the model cannot reach inside `limits`
       (their drive is the nearer limit).
     - `result`: `successful`, or `nonfinite` when the model diverged.
-    - `method`: "per-sample inversion" or "optimised drive".
+    - `method`: "per-sample inversion", "dynamic inversion" or "optimised drive".
+    - `slew_limit`: the amplifier's largest drive rate |du/dt| given to
+      `compensate` (drive units per second), or None.
+    - `over_slew`: samples the drive reaches from the previous one faster than
+      `slew_limit` (None without one): the amplifier cannot follow the drive
+      there, so the stage will lag the prediction. Reported, never smoothed away.
     """
 
     times: Float[Array, " n"]
@@ -67,6 +73,8 @@ class Compensation(eqx.Module):
     limits: tuple[float, float]
     result: RESULTS
     method: str = "per-sample inversion"
+    slew_limit: float | None = None
+    over_slew: Bool[Array, " n"] | None = None
 
     @property
     def error(self) -> Float[Array, " n"]:
@@ -75,9 +83,12 @@ class Compensation(eqx.Module):
 
     def tracking(self) -> dict[str, float]:
         """RMS and maximum predicted tracking error in output units and in % of the
-        reference's stroke (its peak-to-peak range), and how many samples are at a
-        limit."""
+        reference's stroke (its peak-to-peak range), how many samples are at a
+        limit, how many the drive reaches faster than `slew_limit`, and the drive's
+        largest rate |du/dt| (drive units per second)."""
         error = np.asarray(self.error)
+        drive = np.asarray(self.drive)
+        dt = float(np.mean(np.diff(np.asarray(self.times))))
         stroke = float(np.ptp(np.asarray(self.reference)))
         rms = float(np.sqrt(np.mean(error**2)))
         peak = float(np.max(np.abs(error)))
@@ -88,6 +99,12 @@ class Compensation(eqx.Module):
             "rms_error_percent_of_stroke": rms * scale,
             "max_error_percent_of_stroke": peak * scale,
             "samples_at_limit": int(np.count_nonzero(np.asarray(self.at_limit))),
+            "samples_over_slew": (
+                0
+                if self.over_slew is None
+                else int(np.count_nonzero(np.asarray(self.over_slew)))
+            ),
+            "max_slew_rate": float(np.max(np.abs(np.diff(drive))) / dt),
         }
 
     def error_spectrum(self) -> ErrorSpectrum:
@@ -459,6 +476,7 @@ def compensate(
     reference: Float[ArrayLike, " n"],
     *,
     limits: tuple[float, float],
+    slew_limit: float | None = None,
     method: AbstractCompensationMethod | None = None,
     solver: AbstractSimulationSolver = RK4(),
     throw: bool = True,
@@ -473,7 +491,11 @@ def compensate(
     optimised ahead of time; the default for a time shift, and the most exact for
     any lagging model where its minute is affordable). `Compensation.method`
     says which ran. Samples the model cannot
-    reach inside `limits` are flagged in `at_limit`, never silently clipped. The
+    reach inside `limits` are flagged in `at_limit`, never silently clipped; with
+    `slew_limit` (the amplifier's largest |du/dt|, drive units per second), the
+    samples the drive reaches faster than that are flagged in `over_slew` (the
+    drive is not smoothed: where the amplifier cannot follow it, the stage lags the
+    prediction). The
     model starts at rest at the first sample's drive; pass the `solver` the model
     was fitted with (e.g. `RK4(substeps=4)` for `PiezoStage`). `throw=True` raises
     when the model diverged.
@@ -494,7 +516,7 @@ def compensate(
             "compensate: method must be PerSampleInversion(), DynamicInversion() or "
             f"OptimisedDrive(), got {type(method).__name__}."
         )
-    t, r, _ = uniform_series(
+    t, r, dt = uniform_series(
         "compensate", times, reference, name="reference", minimum=2
     )
     lo, hi = (float(v) for v in limits)
@@ -502,10 +524,29 @@ def compensate(
         raise ValueError(
             f"compensate: limits must be finite with lower < upper, got {limits}."
         )
+    if slew_limit is not None:
+        if isinstance(slew_limit, bool) or not isinstance(slew_limit, numbers.Real):
+            raise TypeError(
+                "compensate: slew_limit must be a number (drive units per second) "
+                f"or None, got {type(slew_limit).__name__}."
+            )
+        if not (np.isfinite(slew_limit) and slew_limit > 0):
+            raise ValueError(
+                "compensate: slew_limit must be positive and finite (drive units "
+                f"per second, e.g. 1e4 for 10 V/ms), got {slew_limit!r}."
+            )
+        slew_limit = float(slew_limit)
     r_array = jnp.asarray(r)
     drive, predicted, at_limit = method.drive(model, solver, t, r_array, lo, hi)
     finite = bool(np.all(np.isfinite(np.asarray(predicted))))
     result = RESULTS.successful if finite else RESULTS.nonfinite
+    over_slew = None
+    if slew_limit is not None:
+        rate = np.abs(np.diff(np.asarray(drive))) / dt
+        # The interval ending at a sample; a rounding-level excess is not one.
+        over_slew = jnp.asarray(
+            np.concatenate([[False], rate > slew_limit * (1 + 1e-9)])
+        )
     out = Compensation(
         jnp.asarray(t, r_array.dtype),
         r_array,
@@ -515,6 +556,8 @@ def compensate(
         (lo, hi),
         result,
         method.name,
+        slew_limit,
+        over_slew,
     )
     if throw:
         raise_unless_successful(result, "compensate")

@@ -168,6 +168,28 @@ def test_a_time_shifted_hysteresis_is_inverted_without_shifting_the_linear_term(
     np.testing.assert_allclose(result.drive, made, atol=1e-4)
 
 
+def test_drives_faster_than_the_slew_limit_are_flagged_not_smoothed():
+    path = _path(500.0)
+    t = np.asarray(path.times)
+    reference = np.asarray(jh.simulate(PAPER, path))
+    free = jh.compensate(PAPER, t, reference, limits=(0.0, 5.0))
+    assert free.over_slew is None and free.tracking()["samples_over_slew"] == 0
+    rate = np.abs(np.diff(np.asarray(free.drive))) * 500.0
+    np.testing.assert_allclose(free.tracking()["max_slew_rate"], rate.max())
+    limit = 0.5 * rate.max()  # u1 = 2 - 2 cos(0.2 pi t) peaks at 0.4 pi V/s
+    result = jh.compensate(PAPER, t, reference, limits=(0.0, 5.0), slew_limit=limit)
+    flagged = np.asarray(result.over_slew)
+    assert flagged.shape == t.shape and not flagged[0]
+    np.testing.assert_array_equal(flagged[1:], rate > limit)
+    assert 0 < result.tracking()["samples_over_slew"] == int(flagged.sum())
+    # The drive is the same: the limit is reported, never smoothed away.
+    np.testing.assert_array_equal(result.drive, free.drive)
+    with pytest.raises(ValueError, match="slew_limit must be positive"):
+        jh.compensate(PAPER, t, reference, limits=(0.0, 5.0), slew_limit=-1.0)
+    with pytest.raises(TypeError, match="slew_limit must be a number"):
+        jh.compensate(PAPER, t, reference, limits=(0.0, 5.0), slew_limit="fast")  # type: ignore[arg-type]
+
+
 def test_compensate_bad_inputs():
     t = np.arange(10) * 0.01
     r = np.zeros(10)
@@ -267,6 +289,13 @@ def test_compensate_command_writes_the_drive_and_report(tmp_path, capsys):
     assert "already exists" in capsys.readouterr().err
     assert main([*argv, "--out", str(tmp_path / "d2.csv"), "--limits", "0,2"]) == 0
     assert "need a drive outside 0 to 2" in capsys.readouterr().err
+    slow = ["--out", str(tmp_path / "d4.csv"), "--slew-limit", "0.5"]
+    assert main([*argv, *slow, "--report", str(tmp_path / "r2" / "r.md")]) == 0
+    assert "faster than --slew-limit 0.5 per s" in capsys.readouterr().err
+    assert (
+        "faster than the slew limit 0.5 per second"
+        in (tmp_path / "r2" / "r.md").read_text()
+    )
     assert main([*argv, "--out", str(tmp_path / "d3.csv"), "--limits", "2"]) == 2
     assert "LO,HI" in capsys.readouterr().err
 

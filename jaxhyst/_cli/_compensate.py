@@ -81,6 +81,15 @@ def add_parser(subparsers) -> None:
         "records it: beyond it the model extrapolates).",
     )
     parser.add_argument(
+        "--slew-limit",
+        type=float,
+        default=None,
+        metavar="RATE",
+        help="the amplifier's largest drive rate |du/dt| in drive units per second "
+        "(e.g. 10000 for 10 V/ms): samples the drive reaches faster are reported "
+        "(the stage will lag the prediction there), not smoothed away.",
+    )
+    parser.add_argument(
         "--report",
         default=None,
         metavar="PATH",
@@ -148,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
         reference.t,
         reference.y,
         limits=limits,
+        slew_limit=args.slew_limit,
         solver=default_solver(loaded.model, reference),
         throw=False,
     )
@@ -177,6 +187,14 @@ def run(args: argparse.Namespace) -> int:
             f"a drive outside {limits[0]:g} to {limits[1]:g}: the model cannot reach "
             "the reference there (the drive is held at the limit); widen --limits "
             "if the amplifier allows."
+        )
+    if tracking["samples_over_slew"]:
+        warn(
+            f"{tracking['samples_over_slew']} of {reference.num_samples} samples need "
+            f"the drive to move faster than --slew-limit {args.slew_limit:g} per s "
+            f"(up to {tracking['max_slew_rate']:.4g} per s): the amplifier cannot "
+            "follow it there, and the stage will lag the prediction; slow the "
+            "reference down there or check the amplifier's slew rate."
         )
     prepare_parent(out)
     table = np.stack(

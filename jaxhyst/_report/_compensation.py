@@ -81,6 +81,7 @@ def _blocks(
         ),
         Paragraph(
             f"Samples out of reach inside the limits: {tracking['samples_at_limit']}."
+            + _slew_sentence(compensation, tracking)
         ),
         Paragraph(
             "Where the predicted error lies in frequency (its RMS in octave bands, "
@@ -91,6 +92,17 @@ def _blocks(
         Image(figures["drive"], figures["drive"].name, "drive and output"),
         Image(figures["error"], figures["error"].name, "tracking error"),
     ]
+
+
+def _slew_sentence(compensation: Compensation, tracking: dict) -> str:
+    rate = f"{tracking['max_slew_rate']:.4g}"
+    if compensation.slew_limit is None:
+        return f" The drive's largest rate: {rate} per second."
+    return (
+        f" Samples the drive reaches faster than the slew limit "
+        f"{compensation.slew_limit:g} per second: {tracking['samples_over_slew']} "
+        f"(largest rate {rate} per second)."
+    )
 
 
 def _spectrum_table(compensation: Compensation, *, scale: float, unit: str) -> Table:
