@@ -33,6 +33,13 @@ DATA_DIR_DEFAULT = "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/d
 # ------------------------------------------------------------ the command line
 
 
+def add_subset(parser, flag: str, choices: list[str], help: str | None = None) -> None:
+    """`flag` takes one or more of `choices` (default: all of them)."""
+    parser.add_argument(
+        flag, nargs="+", default=list(choices), choices=list(choices), help=help
+    )
+
+
 def cli_command() -> list[str]:
     """The `jaxhyst` console script beside this interpreter, else `python -m`."""
     name = "jaxhyst.exe" if os.name == "nt" else "jaxhyst"

@@ -170,11 +170,10 @@ def main() -> None:
         help="cases: 'clean' or effect names joined by '+'",
     )
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument(
+    common.add_subset(
+        parser,
         "--models",
-        nargs="+",
-        default=["plain", "corrected", "diagnosed"],
-        choices=["plain", "corrected", "diagnosed"],
+        ["plain", "corrected", "diagnosed"],
         help="the models to invert (the corrected model's optimised drive takes "
         "minutes per reference where its asymmetry term makes the fit nonsmooth)",
     )

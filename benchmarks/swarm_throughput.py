@@ -80,17 +80,11 @@ def parse_args(argv=None):
         default=2,
         help="iterations for the NumPy MPSO and PySwarms baselines",
     )
-    parser.add_argument(
-        "--methods",
-        nargs="+",
-        default=["jaxhyst", "numpy", "pyswarms", "evosax"],
-        choices=["jaxhyst", "numpy", "pyswarms", "evosax"],
-    )
-    parser.add_argument(
+    common.add_subset(parser, "--methods", ["jaxhyst", "numpy", "pyswarms", "evosax"])
+    common.add_subset(
+        parser,
         "--phases",
-        nargs="+",
-        default=["forced", "native", "wide"],
-        choices=["forced", "native", "wide"],
+        ["forced", "native", "wide"],
         help="wide = forced plus XLA_FLAGS=--xla_cpu_prefer_vector_width=512 (AVX-512 "
         "CPUs: XLA then vectorises 16 float32 / 8 float64 lanes); jaxhyst and evosax "
         "run in it",
