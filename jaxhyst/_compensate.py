@@ -74,12 +74,25 @@ class Compensation(eqx.Module):
     result: RESULTS
     method: str = "per-sample inversion"
     slew_limit: float | None = None
-    over_slew: Bool[Array, " n"] | None = None
 
     @property
     def error(self) -> Float[Array, " n"]:
         """Predicted minus reference output."""
         return self.predicted - self.reference
+
+    def _rates(self) -> np.ndarray:
+        """|du/dt| over each interval between samples (drive units per second)."""
+        dt = float(np.mean(np.diff(np.asarray(self.times, dtype=float))))
+        return np.abs(np.diff(np.asarray(self.drive))) / dt
+
+    @property
+    def over_slew(self) -> Bool[Array, " n"] | None:
+        """Samples the drive reaches from the previous one faster than `slew_limit`
+        (None without one); a rounding-level excess is not one."""
+        if self.slew_limit is None:
+            return None
+        fast = self._rates() > self.slew_limit * (1 + 1e-9)
+        return jnp.asarray(np.concatenate([[False], fast]))
 
     def tracking(self) -> dict[str, float]:
         """RMS and maximum predicted tracking error in output units and in % of the
@@ -87,8 +100,6 @@ class Compensation(eqx.Module):
         limit, how many the drive reaches faster than `slew_limit`, and the drive's
         largest rate |du/dt| (drive units per second)."""
         error = np.asarray(self.error)
-        drive = np.asarray(self.drive)
-        dt = float(np.mean(np.diff(np.asarray(self.times))))
         stroke = float(np.ptp(np.asarray(self.reference)))
         rms = float(np.sqrt(np.mean(error**2)))
         peak = float(np.max(np.abs(error)))
@@ -104,7 +115,7 @@ class Compensation(eqx.Module):
                 if self.over_slew is None
                 else int(np.count_nonzero(np.asarray(self.over_slew)))
             ),
-            "max_slew_rate": float(np.max(np.abs(np.diff(drive))) / dt),
+            "max_slew_rate": float(np.max(self._rates())),
         }
 
     def error_spectrum(self) -> ErrorSpectrum:
@@ -360,8 +371,8 @@ class OptimisedDrive(AbstractCompensationMethod):
     error, the drive kept strictly inside the limits (u = mid + half*tanh(v)).
     The steps stop early once the RMS error is below `rtol` times the reference's
     largest magnitude. Raise `steps` when the tracking error is still falling;
-    `passes=0` skips the fixed-point passes. The cost grows with (passes + steps) x samples: a minute
-    for 10 000 samples on a laptop core."""
+    `passes=0` skips the fixed-point passes. The cost grows with (passes + steps)
+    x samples: a minute for 10 000 samples on a laptop core."""
 
     steps: int = 300
     passes: int = 30
@@ -489,14 +500,12 @@ def compensate(
     the reference ahead of time, then the per-sample inverse; the default for models
     with stage dynamics and no time shift) or `OptimisedDrive()` (the whole drive
     optimised ahead of time; the default for a time shift, and the most exact for
-    any lagging model where its minute is affordable). `Compensation.method`
-    says which ran. Samples the model cannot
-    reach inside `limits` are flagged in `at_limit`, never silently clipped; with
-    `slew_limit` (the amplifier's largest |du/dt|, drive units per second), the
-    samples the drive reaches faster than that are flagged in `over_slew` (the
-    drive is not smoothed: where the amplifier cannot follow it, the stage lags the
-    prediction). The
-    model starts at rest at the first sample's drive; pass the `solver` the model
+    any lagging model where its minute is affordable). `Compensation.method` says
+    which ran. Samples the model cannot reach inside `limits` are flagged in
+    `at_limit`, never silently clipped; with `slew_limit` (the amplifier's largest
+    |du/dt|, drive units per second), the samples the drive reaches faster than that
+    are flagged in `over_slew` (the drive is not smoothed: where the amplifier
+    cannot follow it, the stage lags the prediction). The model starts at rest at the first sample's drive; pass the `solver` the model
     was fitted with (e.g. `RK4(substeps=4)` for `PiezoStage`). `throw=True` raises
     when the model diverged.
     """
@@ -516,7 +525,7 @@ def compensate(
             "compensate: method must be PerSampleInversion(), DynamicInversion() or "
             f"OptimisedDrive(), got {type(method).__name__}."
         )
-    t, r, dt = uniform_series(
+    t, r, _ = uniform_series(
         "compensate", times, reference, name="reference", minimum=2
     )
     lo, hi = (float(v) for v in limits)
@@ -540,13 +549,6 @@ def compensate(
     drive, predicted, at_limit = method.drive(model, solver, t, r_array, lo, hi)
     finite = bool(np.all(np.isfinite(np.asarray(predicted))))
     result = RESULTS.successful if finite else RESULTS.nonfinite
-    over_slew = None
-    if slew_limit is not None:
-        rate = np.abs(np.diff(np.asarray(drive))) / dt
-        # The interval ending at a sample; a rounding-level excess is not one.
-        over_slew = jnp.asarray(
-            np.concatenate([[False], rate > slew_limit * (1 + 1e-9)])
-        )
     out = Compensation(
         jnp.asarray(t, r_array.dtype),
         r_array,
@@ -557,7 +559,6 @@ def compensate(
         result,
         method.name,
         slew_limit,
-        over_slew,
     )
     if throw:
         raise_unless_successful(result, "compensate")

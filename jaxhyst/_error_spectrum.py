@@ -50,14 +50,19 @@ class ErrorSpectrum(eqx.Module):
         scale = 100.0 / self.stroke if self.stroke > 0 else float("nan")
         return self.rms * scale
 
+    def shares(self) -> np.ndarray:
+        """Each band's share (0-1) of the error's mean square (zeros for a zero
+        error)."""
+        power = self.rms**2
+        total = float(np.sum(power))
+        return power / total if total > 0 else np.zeros_like(power)
+
     def dominant(self) -> tuple[float, float, float]:
         """(low, high, share): the band holding the largest part of the error's mean
         square, and that share (0-1)."""
-        power = self.rms**2
-        total = float(np.sum(power))
-        index = int(np.argmax(power))
-        share = float(power[index] / total) if total > 0 else 0.0
-        return float(self.low[index]), float(self.high[index]), share
+        shares = self.shares()
+        index = int(np.argmax(shares))
+        return float(self.low[index]), float(self.high[index]), float(shares[index])
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready dict: the bands as lists, in Hz and in % of the stroke."""

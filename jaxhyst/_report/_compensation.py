@@ -107,20 +107,18 @@ def _slew_sentence(compensation: Compensation, tracking: dict) -> str:
 
 def _spectrum_table(compensation: Compensation, *, scale: float, unit: str) -> Table:
     spectrum = compensation.error_spectrum()
-    power = spectrum.rms**2
-    total = float(np.sum(power))
     rows = []
-    for lo, hi, rms, percent, p in zip(
+    for lo, hi, rms, percent, share in zip(
         spectrum.low,
         spectrum.high,
         spectrum.rms,
         spectrum.percent_of_stroke(),
-        power,
+        spectrum.shares(),
     ):
-        if total > 0 and p >= 0.01 * total:
+        if share >= 0.01:
             band = "mean (0 Hz)" if hi == 0 else f"{lo:.3g} to {hi:.3g} Hz"
             rows.append(
-                [band, f"{scale * rms:.4g}{unit}", f"{percent:.3g}", f"{p / total:.0%}"]
+                [band, f"{scale * rms:.4g}{unit}", f"{percent:.3g}", f"{share:.0%}"]
             )
     return Table(["band", "RMS", "% of stroke", "share of mean square"], rows, "llll")
 
