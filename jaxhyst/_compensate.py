@@ -2,13 +2,16 @@
 output follows a reference, one sample at a time, inside a `lax.scan`.
 
 At every sample the model's state is known (it was driven by the drives found so
-far); the next drive is the value in the amplifier's range whose one-interval
-simulation puts the output on the reference. That is a scalar root of a function
-that is monotone in the drive for the quasi-static piezo models (the output rises
-with the present drive), found by bisection on the drive range: robust, no
-derivative through the sign switch at a reversal, and causal, so it runs sample by
-sample as a real-time feedforward would. A reference the model cannot reach inside
-the range gets the limit's drive, and those samples are reported.
+far); the next drive is the value in the amplifier's range, nearest the present
+drive, whose one-interval simulation puts the output on the reference: a scalar
+root, bracketed by intervals that double from the present drive on the side where
+the output moves toward the reference, then bisected. Robust (no derivative
+through the sign switch at a reversal), causal (it runs sample by sample as a
+real-time feedforward would), and on the model's continuous branch: rate terms fitted on a record's rates can fold the one-sample
+output over for jumps far beyond them, where a root anywhere in the range would be
+a jump to another fold. A reference the model cannot reach inside the range gets
+the drive that comes nearest (the limit's, for a monotone model), and those
+samples are reported.
 
 Models whose output lags the drive (stage dynamics, a drive shifted in time) have
 no per-sample inverse: their output at a sample barely depends on that sample's
@@ -55,7 +58,8 @@ class Compensation(eqx.Module):
     - `predicted`: the model's output under `drive` (what the stage would do if it
       were the model).
     - `at_limit`: samples whose reference the model cannot reach inside `limits`
-      (their drive is the nearer limit).
+      (their drive is the nearer limit, or for a model that folds, the drive that
+      came nearest the reference).
     - `result`: `successful`, or `nonfinite` when the model diverged.
     - `method`: "per-sample inversion", "dynamic inversion" or "optimised drive".
     - `slew_limit`: the amplifier's largest drive rate |du/dt| given to
@@ -175,6 +179,71 @@ def _bisect(function, target, lo, hi, iterations):
     return u, below | above
 
 
+# The first bracket is the drive range / 2**_EXPANSIONS wide; it doubles until the
+# reference is crossed or the limit is reached.
+_EXPANSIONS = 16
+
+
+def _branch_crossing(function, target, u_now, lo, hi, iterations):
+    """(u, out_of_reach): the drive nearest `u_now` where `function` crosses
+    `target`, searched on the side of `u_now` where the output moves toward the
+    target (the output's slope at `u_now` from its values a first bracket away on
+    either side).
+
+    Brackets (hi - lo) * 2**(k - 16) wide grow from `u_now` towards that limit
+    until one holds a crossing, which is bisected until it is one float wide or
+    after `iterations` halvings. A model whose one-sample output is not monotone in
+    the drive (rate terms fitted on a record's rates can fold it over for jumps far
+    beyond them) thus keeps to its continuous branch instead of jumping to a
+    distant root on a fold. Without a crossing before the limit, the drive is the
+    one tried whose output came nearest the target (the limit, for a monotone
+    model) and the sample is out of reach."""
+    f_now = function(u_now)
+    g0 = f_now - target
+    first = jnp.ldexp(hi - lo, -_EXPANSIONS)
+    up, down = jnp.minimum(u_now + first, hi), jnp.maximum(u_now - first, lo)
+    rising = function(up) >= function(down)  # the output's slope at u_now
+    direction = jnp.where(rising == (g0 < 0), 1.0, -1.0)
+    end = jnp.where(direction > 0, hi, lo)
+
+    def not_crossed(g):
+        return g * g0 > 0
+
+    def expanding(carry):
+        k, found, _, last = carry[:4]
+        return ~found & (k <= _EXPANSIONS) & (last != end)
+
+    def expand(carry):
+        k, _, a, b, best, g_best = carry
+        trial = u_now + direction * jnp.ldexp(hi - lo, k - _EXPANSIONS)
+        trial = jnp.where(direction > 0, jnp.minimum(trial, hi), jnp.maximum(trial, lo))
+        g = function(trial) - target
+        found = ~not_crossed(g)
+        closer = jnp.abs(g) < jnp.abs(g_best)
+        best, g_best = jnp.where(closer, trial, best), jnp.where(closer, g, g_best)
+        return k + 1, found, b, trial, best, g_best
+
+    start = (0, g0 == 0, u_now, u_now, u_now, g0)
+    _, found, a, b, best, g_best = jax.lax.while_loop(expanding, expand, start)
+
+    def halving(carry):
+        i, a, b = carry
+        mid = 0.5 * (a + b)
+        return (i < iterations) & (mid != a) & (mid != b)
+
+    def halve(carry):
+        i, a, b = carry
+        mid = 0.5 * (a + b)
+        keep_b = not_crossed(function(mid) - target)
+        return i + 1, jnp.where(keep_b, mid, a), jnp.where(keep_b, b, mid)
+
+    _, a, b = jax.lax.while_loop(halving, halve, (0, a, b))
+    # Within rounding of the target counts as met (it may come from the limit).
+    slack = 1e-9 * jnp.maximum(jnp.abs(target), jnp.abs(f_now))
+    out_of_reach = ~found & (jnp.abs(g_best) > slack)
+    return jnp.where(found, 0.5 * (a + b), best), out_of_reach
+
+
 @eqx.filter_jit
 def _invert(model, solver, t0, dt, reference, lo, hi, iterations):
     def output_at_rest(u):
@@ -193,7 +262,7 @@ def _invert(model, solver, t0, dt, reference, lo, hi, iterations):
         def output(u):
             return _one_interval(model, solver, t, dt, state, u_now, u)[0]
 
-        u, limited = _bisect(output, target, lo, hi, iterations)
+        u, limited = _branch_crossing(output, target, u_now, lo, hi, iterations)
         y, new_state = _one_interval(model, solver, t, dt, state, u_now, u)
         return (new_state, u), (u, y, limited)
 
@@ -298,9 +367,11 @@ class AbstractCompensationMethod(eqx.Module):
 
 
 class PerSampleInversion(AbstractCompensationMethod):
-    """Causal: at every sample, the drive whose one-sample simulation meets the
-    reference, by `iterations` bisection halvings of the drive range (52 reach
-    float64 resolution). For models without a lag (see the module docstring)."""
+    """Causal: at every sample, the drive nearest the present one whose one-sample
+    simulation meets the reference: brackets from 2**-16 of the drive range, doubling
+    from the present drive toward the reference, then at most `iterations` bisection
+    halvings (they stop at float64 resolution, which 52 always reach). For models
+    without a lag (see the module docstring)."""
 
     iterations: int = 52
     name: ClassVar[str] = "per-sample inversion"

@@ -10,8 +10,9 @@ C99 (only `<math.h>`), with the model's parameters as constants and
   sign rule, as `simulate` with `RK4(substeps)` and linear input); returns the
   output at the new sample;
 - `<prefix>_compensate_step(state, y_ref, dt, lo, hi, &at_limit)`: the compensator
-  of `compensate`: the drive in [lo, hi] whose step meets `y_ref` (bisection),
-  applied to the state; `at_limit` is set when `y_ref` is out of reach.
+  of `compensate`: the drive in [lo, hi] nearest the present one whose step meets
+  `y_ref` (the same bracket search and bisection), applied to the state;
+  `at_limit` is set when `y_ref` is out of reach.
 
 Exported: `PiezoBoucWen` and `CorrectedPiezoBoucWen` with phi = 0, with
 `ExactSign`, `TanhSign` or `AlgebraicSign` smoothing.
@@ -19,6 +20,7 @@ Exported: `PiezoBoucWen` and `CorrectedPiezoBoucWen` with phi = 0, with
 
 from pathlib import Path
 
+from ._compensate import _EXPANSIONS
 from ._files import Refusal, output_folder
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoBoucWen
@@ -80,9 +82,11 @@ double {prefix}_output(const {prefix}_state *state);
    the output at the new sample. */
 double {prefix}_step({prefix}_state *state, double u_next, double dt);
 
-/* The drive in [lo, hi] whose step meets y_ref (bisection, {iterations} halvings),
-   applied to the state; *at_limit is 1 when y_ref is out of reach (the drive is
-   then the nearer limit), else 0. */
+/* The drive in [lo, hi] nearest the present one whose step meets y_ref (brackets
+   doubling from the present drive on the side where the output moves toward
+   y_ref, then bisection, at most {iterations} halvings), applied to the state; *at_limit is 1 when y_ref is out
+   of reach (the drive is then the one tried that came nearest, the nearer limit
+   for a monotone model), else 0. */
 double {prefix}_compensate_step({prefix}_state *state, double y_ref, double dt,
                                 double lo, double hi, int *at_limit);
 
@@ -105,6 +109,7 @@ static const double N = {n!r};
 static const double EPS = {eps!r};
 static const int SUBSTEPS = {substeps};
 static const int ITERATIONS = {iterations};
+static const int EXPANSIONS = {expansions};
 
 static double sgn(double x) {{ {sign} }}
 
@@ -155,20 +160,33 @@ static double trial(const {prefix}_state *state, double u, double dt) {{
 
 double {prefix}_compensate_step({prefix}_state *state, double y_ref, double dt,
                                 double lo, double hi, int *at_limit) {{
-    double f_lo = trial(state, lo, dt), f_hi = trial(state, hi, dt);
-    int rising = f_hi >= f_lo;
-    double slack = 1e-9 * fabs(f_hi - f_lo);
-    int below = rising ? y_ref < f_lo - slack : y_ref > f_lo + slack;
-    int above = rising ? y_ref > f_hi + slack : y_ref < f_hi - slack;
-    double a = lo, b = hi, u;
+    double u_now = state->u, f_now = trial(state, u_now, dt), g0 = f_now - y_ref;
+    double first = ldexp(hi - lo, -EXPANSIONS);
+    double up = fmin(u_now + first, hi), down = fmax(u_now - first, lo);
+    int rising = trial(state, up, dt) >= trial(state, down, dt);
+    double direction = (rising == (g0 < 0.0)) ? 1.0 : -1.0;
+    double end = direction > 0.0 ? hi : lo;
+    double a = u_now, b = u_now, best = u_now, g_best = g0, u;
+    int found = g0 == 0.0;
+    for (int k = 0; !found && k <= EXPANSIONS && b != end; ++k) {{
+        double next = u_now + direction * ldexp(hi - lo, k - EXPANSIONS);
+        next = direction > 0.0 ? fmin(next, hi) : fmax(next, lo);
+        double g = trial(state, next, dt) - y_ref;
+        found = !(g * g0 > 0.0);
+        if (fabs(g) < fabs(g_best)) {{
+            best = next;
+            g_best = g;
+        }}
+        a = b;
+        b = next;
+    }}
     for (int i = 0; i < ITERATIONS; ++i) {{
         double mid = 0.5 * (a + b);
-        double f = trial(state, mid, dt);
-        int low_side = rising ? f < y_ref : f > y_ref;
-        if (low_side) a = mid; else b = mid;
+        if (mid == a || mid == b) break;
+        if ((trial(state, mid, dt) - y_ref) * g0 > 0.0) a = mid; else b = mid;
     }}
-    u = below ? lo : (above ? hi : 0.5 * (a + b));
-    *at_limit = below || above;
+    u = found ? 0.5 * (a + b) : best;
+    *at_limit = !found && fabs(g_best) > 1e-9 * fmax(fabs(y_ref), fabs(f_now));
     {prefix}_step(state, u, dt);
     return u;
 }}
@@ -216,6 +234,7 @@ def export_c(
         "model": type(model).__name__,
         "version": jaxhyst.__version__,
         "iterations": iterations,
+        "expansions": _EXPANSIONS,
     }
     header.write_text(_HEADER.format(guard=prefix.upper() + "_H", **common))
     source.write_text(_SOURCE.format(sign=sign, substeps=substeps, **values, **common))

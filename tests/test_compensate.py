@@ -61,6 +61,35 @@ def test_out_of_reach_references_are_flagged_not_hidden():
     assert result.tracking()["samples_at_limit"] == int(at_limit.sum())
 
 
+def test_the_inverse_stays_on_the_branch_of_a_model_that_folds_far_from_the_drive():
+    # A negative log-rate amplitude (as diagnoses fit on a record's rates) turns
+    # A1 negative for one-sample jumps far beyond those rates: the one-sample
+    # output folds over across the drive range. A bisection over the whole range
+    # jumps between the folds (drive errors of the whole range, output blown up);
+    # the nearest crossing from the present drive recovers the drive exactly.
+    path = _path()
+    model = jh.ExtendedPiezo.around(PAPER, path).replace(
+        rate_amplitude=-0.33, rate_gain=0.23
+    )
+    lo, hi = 0.0, 5.0
+    trial = jh.simulate(model, jh.InputPath(path.t0, path.dt, np.asarray([2.0, hi])))
+    back = jh.simulate(model, jh.InputPath(path.t0, path.dt, np.asarray([2.0, 2.1])))
+    assert float(trial[1]) < float(back[1])  # the fold: more drive, less output
+    reference = np.asarray(jh.simulate(model, path))
+    result = jh.compensate(model, np.asarray(path.times), reference, limits=(lo, hi))
+    np.testing.assert_allclose(result.drive, path.values, atol=1e-9)
+    assert not np.any(np.asarray(result.at_limit))
+    assert result.tracking()["rms_error_percent_of_stroke"] < 1e-6
+    # A reference below the model's reach at the lower limit: the drive waits at
+    # the limit (flagged) instead of jumping up to a fold where the output falls.
+    lower = reference - 0.05 * np.ptp(reference)
+    result = jh.compensate(model, np.asarray(path.times), lower, limits=(lo, hi))
+    drive, at_limit = np.asarray(result.drive), np.asarray(result.at_limit)
+    assert at_limit.any() and np.all(drive[at_limit] == lo)
+    largest_step = np.max(np.abs(np.diff(np.asarray(path.values))))
+    assert np.max(np.abs(np.diff(drive))) < 3 * largest_step
+
+
 @pytest.mark.parametrize(
     "model, method, words",
     [

@@ -46,8 +46,8 @@ def _blocks(
     source = f" from `{model_file}`" if model_file is not None else ""
     named = reference_file if reference_file is not None else reference.name
     method = (
-        "at every sample, the drive in the limits whose one-sample simulation "
-        "meets the reference, by bisection"
+        "at every sample, the drive in the limits nearest the present one whose "
+        "one-sample simulation meets the reference (bracket search and bisection)"
         if compensation.method == "per-sample inversion"
         else "the whole drive optimised through the simulator, from the inverse "
         "of the model's quasi-static part"
