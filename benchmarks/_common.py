@@ -16,6 +16,7 @@ import math
 import os
 import platform
 import statistics
+import subprocess
 import sys
 import time
 from collections import Counter
@@ -47,6 +48,35 @@ def cli_command() -> list[str]:
     if os.path.isfile(script):
         return [script]
     return [sys.executable, "-m", "jaxhyst"]
+
+
+def add_bytecode(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--no-bytecode-cache",
+        action="store_true",
+        help="children compile every module from source, as with "
+        "PYTHONDONTWRITEBYTECODE set (default: bytecode cached, as a user's Python "
+        "does)",
+    )
+
+
+def child_environment(pycache: str | None, **variables: str) -> dict[str, str]:
+    """The environment of a timed child process: os.environ plus `variables`,
+    without XLA_FLAGS. With `pycache` (a folder), Python caches bytecode there, as
+    a user's Python does beside the sources: PYTHONDONTWRITEBYTECODE, which this
+    workplace's machines set, would make every fresh process compile each jaxhyst
+    module from source (about 0.5 s). Call `warm_bytecode` before timing."""
+    env = dict(os.environ, **variables)
+    env.pop("XLA_FLAGS", None)
+    if pycache is not None:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = pycache
+    return env
+
+
+def warm_bytecode(env: dict[str, str]) -> None:
+    """Import jaxhyst once under `env`, so its bytecode is cached before timing."""
+    subprocess.run([sys.executable, "-c", "import jaxhyst"], env=env, check=True)
 
 
 def cache_size(folder) -> tuple[int, int]:

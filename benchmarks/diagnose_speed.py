@@ -10,7 +10,9 @@ every program traced, compiled and written to the cache), then again in a fresh
 process with the same folder (warm: the compiled programs and, since session 19,
 the traced ones are read back). The parent measures each process from its start to
 its exit. Reports the medians over the records, the named effects and final RMS of
-each run (the warm runs must equal the cold ones), and what the cache holds.
+each run (the warm runs must equal the cold ones), and what the cache holds. The
+children cache Python bytecode, as a user's Python does (`--no-bytecode-cache`:
+every module compiled from source in each process, as with PYTHONDONTWRITEBYTECODE).
 
     python benchmarks/diagnose_speed.py                 # 5 records (~8 min)
     python benchmarks/diagnose_speed.py --cases 1 --json out.json
@@ -46,6 +48,7 @@ def parse_args(argv=None):
     parser.add_argument("--duration", type=float, default=45.0, help="seconds (45)")
     parser.add_argument("--rate", type=float, default=1000.0, help="Hz (1000)")
     parser.add_argument("--seed", type=int, default=0, help="records and diagnosis")
+    common.add_bytecode(parser)
     common.add_json(parser)
     args = parser.parse_args(argv)
     if not 1 <= args.cases <= len(CASES):
@@ -75,11 +78,12 @@ def write_records(args, folder: str) -> list[str]:
     return paths
 
 
-def run_diagnose(record: str, cache: str, out: str, seed: int) -> dict:
+def run_diagnose(
+    record: str, cache: str, out: str, seed: int, pycache: str | None
+) -> dict:
     command = [*common.cli_command(), "diagnose", record, "--json", out, "--force"]
     command += ["--seed", str(seed)]
-    env = dict(os.environ, JAXHYST_CACHE_DIR=cache)
-    env.pop("XLA_FLAGS", None)
+    env = common.child_environment(pycache, JAXHYST_CACHE_DIR=cache)
     start = time.perf_counter()
     done = subprocess.run(command, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - start
@@ -105,6 +109,10 @@ def main(argv=None) -> int:
     machine = common.machine_info(devices=False, load=True)
     runs = []
     with tempfile.TemporaryDirectory() as folder:
+        pycache = None if args.no_bytecode_cache else os.path.join(folder, "pyc")
+        machine["bytecode_cached"] = pycache is not None
+        if pycache is not None:
+            common.warm_bytecode(common.child_environment(pycache))
         records = write_records(args, folder)
         for index, record in enumerate(records):
             cache = os.path.join(folder, f"cache-{index}")
@@ -113,7 +121,7 @@ def main(argv=None) -> int:
             for state in ("empty", "warm"):
                 common.log(f"{row['record']}: jaxhyst diagnose, {state} cache")
                 out = os.path.join(folder, f"diagnosis-{index}-{state}.json")
-                row[state] = run_diagnose(record, cache, out, args.seed)
+                row[state] = run_diagnose(record, cache, out, args.seed, pycache)
             row["warm_equals_cold"] = all(
                 row["warm"][k] == row["empty"][k] for k in ("named", "final_rmse")
             )

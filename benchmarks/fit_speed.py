@@ -32,7 +32,10 @@ standard deviation 0.1 % of max|y| (fixed seed).
    ones. (The child of 1. never enables the cache: a library import does not.)
 
 No child sets XLA_FLAGS (one CPU device; XLA multithreads within it) unless
-`--host-devices K` is given.
+`--host-devices K` is given. The children cache Python bytecode (in a temporary
+folder, filled by the first child before any timing), as a user's Python does;
+`--no-bytecode-cache` makes each compile every module from source, as on machines
+that set PYTHONDONTWRITEBYTECODE (about 0.5 s more per process here).
 
 Run `python benchmarks/fit_speed.py`; `--json PATH` saves the results.
 """
@@ -85,6 +88,7 @@ def parse_args(argv=None):
         default=3,
         help="cold/warm pairs of fresh-process 'jaxhyst fit' runs (0: skip them)",
     )
+    common.add_bytecode(parser)
     common.add_json(parser)
     parser.add_argument(
         "--child", choices=["make", "fit", "paper"], help=argparse.SUPPRESS
@@ -224,6 +228,15 @@ def child_paper(args):
 # ----------------------------------------------------------------------------- parent
 
 
+def environment(args, **variables):
+    """A child's environment: bytecode cached in `args.pycache` (None: inherited),
+    XLA_FLAGS only from --host-devices."""
+    env = common.child_environment(args.pycache, **variables)
+    if args.host_devices:
+        env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.host_devices}"
+    return env
+
+
 def run_child(args, kind):
     cmd = [sys.executable, os.path.abspath(__file__), "--child", kind]
     cmd += ["--seed", str(args.seed), "--noise", str(args.noise)]
@@ -231,10 +244,7 @@ def run_child(args, kind):
     cmd += ["--paper-iterations", str(args.paper_iterations)]
     if args.recording:
         cmd += ["--recording", args.recording]
-    env = dict(os.environ)
-    env.pop("XLA_FLAGS", None)
-    if args.host_devices:
-        env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.host_devices}"
+    env = environment(args)
     start_epoch = time.time()
     start = time.perf_counter()
     proc = subprocess.run(cmd, env=env, stdout=subprocess.PIPE, text=True)
@@ -253,10 +263,7 @@ def run_cli_fit(args, cache_dir, out):
     """One fresh `jaxhyst fit` process with JAXHYST_CACHE_DIR=cache_dir."""
     cmd = [*common.cli_command(), "fit", args.recording, "--json", out, "--force"]
     cmd += ["--seed", str(args.seed)]
-    env = dict(os.environ, JAXHYST_CACHE_DIR=cache_dir)
-    env.pop("XLA_FLAGS", None)
-    if args.host_devices:
-        env["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.host_devices}"
+    env = environment(args, JAXHYST_CACHE_DIR=cache_dir)
     start = time.perf_counter()
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
     wall_s = time.perf_counter() - start
@@ -339,19 +346,21 @@ def main(argv=None):
     )
     common.log("fit: fresh process -> jh.identify ...")
     with tempfile.TemporaryDirectory() as folder:
+        args.pycache = None if args.no_bytecode_cache else os.path.join(folder, "pyc")
+        machine["bytecode_cached"] = args.pycache is not None
         args.recording = os.path.join(folder, "paper-u1.npz")
-        run_child(args, "make")
+        run_child(args, "make")  # also caches the bytecode, before any timing
         fit = run_child(args, "fit")
         cli = None
         if args.cli_repeats > 0:
             cli = cli_cold_warm(args, folder, fit["sigma"])
-    paper = None
-    if not args.skip_paper:
-        common.log(
-            f"paper: MPSO.paper_case({args.paper_case}) for {args.paper_iterations} "
-            "iterations ..."
-        )
-        paper = run_child(args, "paper")
+        paper = None
+        if not args.skip_paper:
+            common.log(
+                f"paper: MPSO.paper_case({args.paper_case}) for "
+                f"{args.paper_iterations} iterations ..."
+            )
+            paper = run_child(args, "paper")
     machine["load_average_after"] = os.getloadavg()
 
     m = machine
@@ -361,6 +370,14 @@ def main(argv=None):
         f"{m['load_average_after'][0]:.2f}"
     )
     print(f"devices: {fit['devices']}  XLA_FLAGS={m['xla_flags']!r}")
+    print(
+        "bytecode: "
+        + (
+            "cached, as a user's Python does"
+            if m["bytecode_cached"]
+            else "not cached (every module compiled from source in each process)"
+        )
+    )
     print(
         f"recording: PiezoBoucWen.paper_table4(3) under u1 at {args.rate:g} Hz, N = "
         f"{fit['num_samples']}, noise sigma = {args.noise:g} * max|y| = "
