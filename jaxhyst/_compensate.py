@@ -7,9 +7,9 @@ drive, whose one-interval simulation puts the output on the reference: a scalar
 root, bracketed by intervals that double from the present drive on the side where
 the output moves toward the reference, then bisected. Robust (no derivative
 through the sign switch at a reversal), causal (it runs sample by sample as a
-real-time feedforward would), and on the model's continuous branch: rate terms fitted on a record's rates can fold the one-sample
-output over for jumps far beyond them, where a root anywhere in the range would be
-a jump to another fold. A reference the model cannot reach inside the range gets
+real-time feedforward would), and on the model's continuous branch: rate terms
+fitted on a record's rates can fold the one-sample output over for jumps far
+beyond them, where a root anywhere in the range would be a jump to another fold. A reference the model cannot reach inside the range gets
 the drive that comes nearest (the limit's, for a monotone model), and those
 samples are reported.
 

@@ -84,8 +84,8 @@ double {prefix}_step({prefix}_state *state, double u_next, double dt);
 
 /* The drive in [lo, hi] nearest the present one whose step meets y_ref (brackets
    doubling from the present drive on the side where the output moves toward
-   y_ref, then bisection, at most {iterations} halvings), applied to the state; *at_limit is 1 when y_ref is out
-   of reach (the drive is then the one tried that came nearest, the nearer limit
+   y_ref, then bisection, at most {iterations} halvings), applied to the state;
+   *at_limit is 1 when y_ref is out of reach (the drive is then the one tried that came nearest, the nearer limit
    for a monotone model), else 0. */
 double {prefix}_compensate_step({prefix}_state *state, double y_ref, double dt,
                                 double lo, double hi, int *at_limit);
