@@ -19,8 +19,9 @@ equations as `StructuralBoucWen`, whose energy is divided by `energy_scale`. Hen
 - `BWBN` (pinching): q = pinch_shift, zetas = pinch, p = pinch_rate/energy_scale,
   Shi = pinch_width*zu, deltaShi = 0, lamda = pinch_lambda; it has no nu, eta, so
   degradation is dropped when both are on;
-- neither has asymmetry (yield_skew, stiffness_skew) or drift (offset, trend, curvature,
-  wander).
+- neither has peak-driven degradation (peak_strength_degradation,
+  peak_stiffness_degradation), asymmetry (yield_skew, stiffness_skew) or drift
+  (offset, trend, curvature, wander).
 """
 
 import ctypes
@@ -48,6 +49,7 @@ _INSTALL_HINT = (
 _RELATIVE_TOL = 1e-10
 _MAX_ITER = 100
 _DRIFT = ("offset", "trend", "curvature", "wander")
+_PEAK_DEGRADATION = ("peak_strength_degradation", "peak_stiffness_degradation")
 # StructuralBoucWen's parameters this export knows, listed on purpose (not read from
 # the model): a parameter added to the model later and switched on is reported as
 # dropped under its own name until the export learns it.
@@ -61,6 +63,8 @@ _KNOWN = frozenset(
         "n",
         "strength_degradation",
         "stiffness_degradation",
+        "peak_strength_degradation",
+        "peak_stiffness_degradation",
         "pinch",
         "pinch_shift",
         "pinch_width",
@@ -255,6 +259,15 @@ def opensees_material(
             f"{p['strength_degradation']:.4g}, stiffness_degradation="
             f"{p['stiffness_degradation']:.4g}): BWBN, the only OpenSees material "
             "with this pinching, has no strength or stiffness degradation"
+        )
+    peak = {name: p[name] for name in _PEAK_DEGRADATION if p[name] != 0}
+    if peak:
+        dropped.append("peak-driven degradation")
+        listed = ", ".join(f"{name}={value:.4g}" for name, value in peak.items())
+        reasons.append(
+            f"peak-driven degradation ({listed}): OpenSees's Bouc-Wen materials "
+            "degrade with the dissipated energy only, not with the largest "
+            "displacement reached"
         )
     if p["yield_skew"] != 0 or p["stiffness_skew"] != 0:
         dropped.append("asymmetry")

@@ -97,7 +97,8 @@ class ParameterSpace(eqx.Module):
         self.lower = jnp.asarray(lower)
         self.upper = jnp.asarray(upper)
         # Physical limits that hold even when a polish steps outside the box.
-        self.floor = jnp.asarray([_HARD_FLOORS.get(n, -jnp.inf) for n in names])
+        floors = {**_HARD_FLOORS, **template.parameter_floors}
+        self.floor = jnp.asarray([floors.get(n, -jnp.inf) for n in names])
         # Frozen parameters keep the template's value whatever z says. The mask is
         # traced, so fits over different subsets of one space share a compilation.
         self.frozen = jnp.asarray([n in frozen for n in names], bool)

@@ -218,6 +218,22 @@ def test_unexplained_structure_is_judged_against_the_residuals_own_noise():
     assert "function of the input's level and direction" in found.description
     assert "the same on both directions of motion" in found.resembles
     assert found.heldout_gain > 0.3
+    assert "could not decide" not in found.description
+    # Effects the record could not decide on are named with it (part of the
+    # structure may be theirs).
+    with_undecided = unexplained_structure(
+        recording,
+        family,
+        noise + static,
+        fit,
+        policy,
+        seed=7,
+        undecided=("creep", "drift"),
+    )[0]
+    assert (
+        "the record could not decide whether creep or drift are present"
+        in with_undecided.description
+    )
 
 
 def _oversampled(series: np.ndarray, density: int, rng) -> np.ndarray:

@@ -128,6 +128,13 @@ def test_asymmetry_drift_and_smoothing_are_dropped():
         K, ALPHA, 1.0, BETA, GAMMA, N, smoothing=jh.TanhSign(1e-4)
     )
     assert opensees_material(smooth).dropped == ("smoothing",)
+    peak = opensees_material(
+        _structural(strength_degradation=0.1, peak_stiffness_degradation=0.02)
+    )
+    assert peak.material == "BoucWen" and not peak.exact
+    assert peak.dropped == ("peak-driven degradation",)
+    assert "peak_stiffness_degradation=0.02" in peak.note
+    assert "peak_strength_degradation" not in peak.note
 
 
 def test_bouc_wen_is_converted_to_the_structural_gauge():

@@ -469,11 +469,12 @@ def _validate(
     effect: AbstractEffect,
     new_pred,
     *,
-    extra_parameters: int = 0,
+    parameters: int,
 ) -> Validation:
     """Held-out and fitted errors before and after, and the adoption rule: the
     held-out MSE drop must beat its own noise (its resolution) and the minimum
-    gain, and the information criterion on the fitted samples must fall."""
+    gain, and the information criterion on the fitted samples must fall, charged
+    for the `parameters` the candidate fitted (`AbstractEffect.fitted_dof`)."""
     noise = state.noise_model
     residual, new_res = ctx.y - state.predicted, ctx.y - new_pred
     before_hold, after_hold = (
@@ -486,8 +487,9 @@ def _validate(
     bound = math.sqrt(min(before_hold, after_hold)) if ctx.policy.noise_bound else None
     resolution = noise.resolution(change, state.effective_heldout, bound=bound)
     margin = max(ctx.policy.min_heldout_gain * before_hold, resolution)
-    p = len(effect.parameters) + extra_parameters
-    bic_change = n_eff_fit * math.log(after_fit / before_fit) + p * math.log(n_eff_fit)
+    bic_change = n_eff_fit * math.log(after_fit / before_fit) + parameters * math.log(
+        n_eff_fit
+    )
     return Validation(
         math.sqrt(before_hold),
         math.sqrt(after_hold),
@@ -628,13 +630,13 @@ def _trial(
     new_pred = _predict(ctx, refitted)
     if not _finite(new_pred):
         return None
-    extra = sum(len(e.parameters) for e in dependents)
-    validation = _validate(ctx, state, score, effect, new_pred, extra_parameters=extra)
+    parameters = sum(e.fitted_dof(refitted) for e in effects)
+    validation = _validate(ctx, state, score, effect, new_pred, parameters=parameters)
     rejection = None if validation.accepted else _why_rejected(validation)
     null = None
     if ctx.policy.null_refit and validation.accepted:
         validation, rejection, null = _against_null(
-            ctx, state, score, effects, refitted, new_pred, extra_parameters=extra
+            ctx, state, score, effects, refitted, new_pred, parameters=parameters
         )
     together = tuple(e.name for e in dependents)
     score = dataclasses.replace(
@@ -764,7 +766,7 @@ def _against_null(
     refitted: AbstractHysteresisModel,
     predicted: np.ndarray,
     *,
-    extra_parameters: int = 0,
+    parameters: int,
 ) -> tuple[Validation, str | None, tuple[AbstractHysteresisModel, np.ndarray] | None]:
     """The candidate validated against the model it extends, refitted from the
     candidate's refitted values with its effects switched off (when that null fits
@@ -782,7 +784,7 @@ def _against_null(
     )
     null_pred = _predict(ctx, null)
     current_hold = _mse(ctx.y - state.predicted, ctx.hold_mask)
-    extra = {"extra_parameters": extra_parameters}
+    extra = {"parameters": parameters}
     if not _finite(null_pred) or _mse(ctx.y - null_pred, ctx.hold_mask) >= current_hold:
         return _validate(ctx, state, score, effect, predicted, **extra), None, None
     versus = dataclasses.replace(state, current=null, predicted=null_pred)

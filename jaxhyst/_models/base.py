@@ -170,6 +170,10 @@ class AbstractHysteresisModel(eqx.Module):
         smoothing: eqx.AbstractVar[AbstractSmoothing]
     parameter_names: ClassVar[tuple[str, ...]]
     state_size: ClassVar[int]
+    # Physical lower limits of parameters (by name) that fits keep even when a
+    # polish steps outside its box (`ParameterSpace.floor`), beyond the shared ones
+    # (n >= 1, nu >= 1).
+    parameter_floors: ClassVar[dict[str, float]] = {}
     # The inputs the model reads, in the order an `InputPath` carries them (`values`,
     # then each row of `channels`). Models of more than one input override it.
     input_names: ClassVar[tuple[str, ...]] = ("u",)

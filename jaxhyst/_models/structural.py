@@ -5,9 +5,14 @@ columns, walls and connections). With every effect's gain at zero it is exactly 
 seed's eq. 1-2 (`BoucWen` with D = 1, A = 1); the effects follow the forms OpenSees
 uses, so a fitted model exports exactly where OpenSees has the material:
 
-- degradation (Baber-Wen): nu = 1 + strength_degradation*e, eta = 1 + stiffness_degradation*e
-  with e the dissipated hysteretic energy; zdot = Phi/eta * xdot where
-  Phi = A - nu*(beta*sign(xdot*z) + gamma)*|z|^n (OpenSees `BoucWen`'s deltaNu, deltaEta);
+- degradation (Baber-Wen, and its ductility-driven form): nu = 1 +
+  strength_degradation*e + peak_strength_degradation*p, eta = 1 +
+  stiffness_degradation*e + peak_stiffness_degradation*p, with e the dissipated
+  hysteretic energy and p the largest |x| reached so far (RC members lose stiffness
+  and strength with the largest excursion as well as with the energy; Park-Ang's
+  damage index combines the two); zdot = Phi/eta * xdot where
+  Phi = A - nu*(beta*sign(xdot*z) + gamma)*|z|^n (OpenSees `BoucWen`'s deltaNu,
+  deltaEta; it has no peak-driven terms);
 - pinching (Baber-Noori, Foliente's BWBN): zdot *= h(z) with
   h = 1 - zeta1*exp(-((z*sign(xdot) - q*zu)/zeta2)^2), zeta1 = pinch*(1 - exp(-pinch_rate*e)),
   zeta2 = pinch_width*zu*(pinch_lambda + zeta1), zu = (1/(beta + gamma))^(1/n)
@@ -26,7 +31,10 @@ model exports to BWBN inexactly.
 The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the record,
 set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
 about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
-State: (z, e).
+The peak p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
+the test has reached 10 mm); it is kept exactly, per sample (`sample_update`), so a
+model with a peak rate that is not held at zero runs under `RK4` only.
+State: (z, e, p).
 """
 
 from typing import ClassVar
@@ -69,6 +77,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
     strength_degradation: Float[Array, ""] = _field(0.0)
     stiffness_degradation: Float[Array, ""] = _field(0.0)
+    peak_strength_degradation: Float[Array, ""] = _field(0.0)
+    peak_stiffness_degradation: Float[Array, ""] = _field(0.0)
     pinch: Float[Array, ""] = _field(0.0)
     pinch_shift: Float[Array, ""] = _field(0.1)
     pinch_width: Float[Array, ""] = _field(0.3)
@@ -87,8 +97,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     time_scale: Float[Array, ""] = _normaliser(1.0)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
     # Gains held at zero (`held_at_zero`): with pinch held no pinching (two
-    # exponentials and a power per stage) is computed; with it and both degradation
-    # rates held, no energy either.
+    # exponentials and a power per stage) is computed; with it and both energy
+    # degradation rates held, no energy either; with both peak rates held, no peak.
     zero_gains: frozenset[str] = held_gains_field()
 
     parameter_names: ClassVar[tuple[str, ...]] = (
@@ -100,6 +110,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         "n",
         "strength_degradation",
         "stiffness_degradation",
+        "peak_strength_degradation",
+        "peak_stiffness_degradation",
         "pinch",
         "pinch_shift",
         "pinch_width",
@@ -111,7 +123,16 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         "curvature",
         "wander",
     )
-    state_size: ClassVar[int] = 2
+    state_size: ClassVar[int] = 3
+    # Degradation only degrades: a member does not get stronger or stiffer as a test
+    # goes on (a fitted strengthening would stand in for a stiffening the catalogue
+    # has no name for, such as a static hardening under growing amplitudes).
+    parameter_floors: ClassVar[dict[str, float]] = {
+        "strength_degradation": 0.0,
+        "stiffness_degradation": 0.0,
+        "peak_strength_degradation": 0.0,
+        "peak_stiffness_degradation": 0.0,
+    }
 
     @classmethod
     def from_bouc_wen(cls, base: BoucWen, **normalisers) -> "StructuralBoucWen":
@@ -185,14 +206,20 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     def vector_field(self, t, state, drive):
         s = self.smoothing
         z, energy = state[0], state[1]
-        xdot = drive.udot
+        x, xdot = drive.u, drive.udot
+        # The largest |x| so far: the state holds it at the last sample
+        # (`sample_update`), and |x| is largest at an end of a linear interval.
+        peak = jnp.maximum(state[2], jnp.abs(x))
         # Each held gain drops a factor of exactly 1 (the rest in the same order).
         shape = self.beta * s.sign(xdot) * s.sign(z) + self.gamma
         if not self._holds("yield_skew"):
             shape = shape * (1 + self.yield_skew * s.sign(z))
         shape = shape * s.abs_pow(z, self.n)
-        if not self._holds("strength_degradation"):
-            shape = jnp.maximum(1 + self.strength_degradation * energy, 1e-2) * shape
+        nu = self._degradation(
+            "strength_degradation", "peak_strength_degradation", energy, peak
+        )
+        if nu is not None:
+            shape = nu * shape
         zdot = self.A - shape
         if not self._holds("pinch"):
             zu = self.saturation()
@@ -202,13 +229,44 @@ class StructuralBoucWen(AbstractGainHoldingModel):
             distance = (z * s.sign(xdot) - self.pinch_shift * zu) / zeta2
             zdot = (1 - zeta1 * jnp.exp(-(distance**2))) * zdot
         zdot = zdot * xdot
-        if not self._holds("stiffness_degradation"):
-            zdot = zdot / jnp.maximum(1 + self.stiffness_degradation * energy, 1e-2)
+        eta = self._degradation(
+            "stiffness_degradation", "peak_stiffness_degradation", energy, peak
+        )
+        if eta is not None:
+            zdot = zdot / eta
+        zero = jnp.zeros_like(zdot)
+        # Nothing reads the dissipated energy, or the peak, where its gains are held.
         if self._holds("strength_degradation", "stiffness_degradation", "pinch"):
-            # Nothing reads the dissipated energy.
-            return jnp.stack([zdot, jnp.zeros_like(zdot)])
-        edot = (1 - self.alpha) * self.k * z * xdot / self.energy_scale
-        return jnp.stack([zdot, edot])
+            edot = zero
+        else:
+            edot = (1 - self.alpha) * self.k * z * xdot / self.energy_scale
+        return jnp.stack([zdot, edot, zero])
+
+    def _degradation(self, energy_rate: str, peak_rate: str, energy, peak):
+        """nu or eta: 1 + energy_rate*e + peak_rate*p (floored at 0.01), or None
+        where both gains are held (the factor is exactly 1)."""
+        if self._holds(energy_rate, peak_rate):
+            return None
+        factor = 1 + self._gain(energy_rate) * energy + self._gain(peak_rate) * peak
+        return jnp.maximum(factor, 1e-2)
+
+    def initial_state(self, drive):
+        u = jnp.asarray(drive.u)
+        zero = jnp.zeros_like(u)
+        return jnp.stack([zero, zero, jnp.abs(u)])
+
+    def sample_update(self, inputs):
+        """With a peak-driven degradation on: the peak state takes each sample's |x|
+        where it is larger (exact; the ODE leaves it alone). None while both peak
+        rates are held at zero, so fits without them keep coarse RK4 steps."""
+        if self._holds("peak_strength_degradation", "peak_stiffness_degradation"):
+            return None
+        values = inputs.values
+
+        def update(start, end, interval):
+            return end.at[2].set(jnp.maximum(start[2], jnp.abs(values[interval + 1])))
+
+        return update
 
     def output(self, t, state, drive):
         s = (t - self.time_center) / self.time_scale

@@ -79,6 +79,20 @@ class AbstractEffect(eqx.Module):
         """`model` with this effect's parameters taken from `source`."""
         return model.replace(**self.values(source))
 
+    def fitted_dof(self, model: AbstractHysteresisModel) -> int:
+        """How many parameters a refit that reached `model` fitted, for the
+        information criterion: each of the effect's parameters except those held at
+        their model's floor (`parameter_floors`), which fitted nothing (the degrees
+        of freedom of non-negative least squares); at least one."""
+        floors = type(model).parameter_floors
+        return max(
+            sum(
+                p not in floors or float(getattr(model, p)) != floors[p]
+                for p in self.parameters
+            ),
+            1,
+        )
+
     def sensitivity_parameters(self, model: AbstractHysteresisModel) -> tuple[str, ...]:
         """The parameters whose output sensitivities the engine computes at
         `model` (all of them for a smooth effect)."""

@@ -9,11 +9,14 @@ from .base import (
     MEAN_GAP,
     AbstractEffect,
     Figure,
+    RefitScales,
     concentration,
     conclude,
     contrast,
     fitted,
     model_as,
+    named_units,
+    per,
     share,
 )
 
@@ -32,19 +35,33 @@ def _change(loss: float) -> str:
 
 class Degradation(AbstractEffect):
     """`StructuralBoucWen`'s Baber-Wen degradation, driven by the dissipated
-    energy e: strength through nu = 1 + strength_degradation*e, stiffness through
-    eta = 1 + stiffness_degradation*e."""
+    energy e and by the largest displacement reached so far p: strength through
+    nu = 1 + strength_degradation*e + peak_strength_degradation*p, stiffness through
+    eta = 1 + stiffness_degradation*e + peak_stiffness_degradation*p. Real members
+    degrade with both (Park-Ang's damage index); a test whose amplitudes only grow
+    cannot tell the two drivers apart, an earthquake-like history can."""
 
     name: ClassVar[str] = "degradation"
     parameters: ClassVar[tuple[str, ...]] = (
         "strength_degradation",
         "stiffness_degradation",
+        "peak_strength_degradation",
+        "peak_stiffness_degradation",
     )
     meaning: ClassVar[str] = (
         "the specimen weakens and/or softens as the test goes on (cracking, "
         "crushing, bond loss, fastener wear): later cycles carry less force at the "
         "same displacement"
     )
+
+    def bounds(self, name, value, scales: RefitScales):
+        # The rates only degrade (`StructuralBoucWen.parameter_floors`): the box
+        # starts at zero. A strengthening is what a static stiffening of the member
+        # looks like under growing amplitudes, and it is not this effect.
+        reach = scales.natural.get(name, math.nan)
+        if not (math.isfinite(reach) and reach > 0):
+            reach = 2 * abs(value) + 1e-12
+        return (0.0, max(value, 0.0) + reach)
 
     def evidence(self, where, model):
         return f"{self._fitted(where, model)}; {self._located(where)}"
@@ -54,8 +71,21 @@ class Degradation(AbstractEffect):
         energy = max(float(where["dissipated_energy"]), 0.0)
         model = model_as(model, StructuralBoucWen, self.name)
         n = float(model.n)
-        nu = max(1 + float(model.strength_degradation) * energy, 1e-2)
-        eta = max(1 + float(model.stiffness_degradation) * energy, 1e-2)
+        # The largest |x| of the record (set by `around`; unset, no peak term).
+        peak = float(model.displacement_scale)
+        peak = peak if peak < 1e29 else 0.0
+        nu = max(
+            1
+            + float(model.strength_degradation) * energy
+            + float(model.peak_strength_degradation) * peak,
+            1e-2,
+        )
+        eta = max(
+            1
+            + float(model.stiffness_degradation) * energy
+            + float(model.peak_stiffness_degradation) * peak,
+            1e-2,
+        )
         # At the end of the test: the hysteretic force saturates at nu^(-1/n) of its
         # first level and the hysteretic tangent is 1/eta of its first value. Judged
         # as quoted (whole percent).
@@ -113,18 +143,26 @@ class Degradation(AbstractEffect):
         return conclude(figures)
 
     def units(self, *, time, input, output):
-        return dict.fromkeys(self.parameters, ENERGY_UNIT)
+        per_peak = per("1", named_units(time, input, output).input)
+        return {
+            "strength_degradation": ENERGY_UNIT,
+            "stiffness_degradation": ENERGY_UNIT,
+            "peak_strength_degradation": per_peak,
+            "peak_stiffness_degradation": per_peak,
+        }
 
     def reading(self, values, errors, units):
-        def q(name):
-            # The unit is spelled out in the words.
-            return fitted(values, errors, units, name, unit="1")
+        def q(name, unit=None):
+            # The energy unit is spelled out in the words.
+            return fitted(values, errors, units, name, unit=unit)
 
         return (
-            f"the strength factor nu grows by {q('strength_degradation')} and the "
-            f"stiffness factor eta by {q('stiffness_degradation')} per max|F|·max|x| "
-            "of dissipated energy (about a quarter of an elastic-perfectly-plastic "
-            "cycle at the peak amplitude): the hysteretic force's ceiling falls as "
-            "nu^(-1/n) and its tangent as 1/eta (negative: the specimen gains "
-            "strength or stiffness)"
+            f"the strength factor nu grows by {q('strength_degradation', '1')} and "
+            f"the stiffness factor eta by {q('stiffness_degradation', '1')} per "
+            "max|F|·max|x| of dissipated energy (about a quarter of an "
+            "elastic-perfectly-plastic cycle at the peak amplitude), and by "
+            f"{q('peak_strength_degradation')} and "
+            f"{q('peak_stiffness_degradation')} per unit of the largest "
+            "displacement reached so far: the hysteretic force's ceiling falls as "
+            "nu^(-1/n) and its tangent as 1/eta"
         )
