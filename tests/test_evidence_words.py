@@ -9,6 +9,8 @@ import copy
 import math
 import re
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -344,6 +346,17 @@ def test_degradation_names_what_the_fitted_values_show():
     strength, _ = _degradation_figures(where, STRUCTURAL_MODEL)
     assert "mainly the strength changes" in text
     assert f"strength is down {strength:.0%}" in text
+    # A rate at its floor reads as no change (not "up -0%").
+    assert "its stiffness unchanged" in text and "-0%" not in text
+    # The peak-driven rates count at the record's largest displacement.
+    peak = eqx.tree_at(
+        lambda m: m.displacement_scale,
+        none.replace(peak_strength_degradation=0.05),
+        jnp.asarray(10.0),
+    )
+    assert f"strength is down {1 - 1.5 ** (-1 / 1.5):.0%}" in (
+        jh.Degradation().evidence(where, peak)
+    )
     both = STRUCTURAL_MODEL.replace(stiffness_degradation=0.05)
     assert "both strength and stiffness" in jh.Degradation().evidence(where, both)
     where["late_peak_force_excess"] = 0.5 * where["overall_rms"]

@@ -30,7 +30,10 @@ MAINLY = 2.0
 
 
 def _change(loss: float) -> str:
-    return f"down {loss:.0%}" if loss > 0 else f"up {-loss:.0%}"
+    if loss > 0:
+        return f"down {loss:.0%}"
+    # The rates are floored at zero: a loss of zero (or -0.0) is no change.
+    return "unchanged" if loss == 0 else f"up {-loss:.0%}"
 
 
 class Degradation(AbstractEffect):
