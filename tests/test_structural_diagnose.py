@@ -89,6 +89,22 @@ def test_peak_driven_degradation_reads_the_largest_displacement_so_far():
     )
 
 
+def test_held_peak_rates_run_under_diffrax_and_free_ones_ask_for_rk4():
+    x = _protocol(levels=(1, 3), cycles=1)
+    path = jh.Recording.quasi_static(x, x).input_path()
+    model = _truth(x).replace(strength_degradation=0.1)
+    with pytest.raises(ValueError, match="Use RK4"):
+        jh.simulate(model, path, jh.DiffraxSolver())
+    held = model.held_at_zero(
+        ["peak_strength_degradation", "peak_stiffness_degradation"]
+    )
+    np.testing.assert_allclose(
+        jh.simulate(held, path, jh.DiffraxSolver()),
+        jh.simulate(model, path, jh.RK4(substeps=8)),
+        atol=1e-6 * float(np.max(np.abs(jh.simulate(model, path, jh.RK4())))),
+    )
+
+
 def test_degradation_rates_are_floored_at_zero_in_every_fit():
     # Degradation only weakens: a polish stepping below zero stops at it, whatever
     # the box's coordinates say (a strengthening is not this effect).

@@ -32,8 +32,10 @@ The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the rec
 set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
 about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
 The peak p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
-the test has reached 10 mm); it is kept exactly, per sample (`sample_update`), so a
-model with a peak rate that is not held at zero runs under `RK4` only.
+the test has reached 10 mm); it is kept exactly, per sample (`sample_update`), so the
+model runs under `RK4` with one step per sample (substeps allowed) unless both peak
+rates are held at zero: `model.held_at_zero(["peak_strength_degradation",
+"peak_stiffness_degradation"])` runs under diffrax and coarse RK4 steps as before.
 State: (z, e, p).
 """
 
