@@ -260,15 +260,20 @@ def opensees_material(
             f"{p['stiffness_degradation']:.4g}): BWBN, the only OpenSees material "
             "with this pinching, has no strength or stiffness degradation"
         )
-    peak = {name: p[name] for name in _PEAK_DEGRADATION if p[name] != 0}
-    if peak:
-        dropped.append("peak-driven degradation")
-        listed = ", ".join(f"{name}={value:.4g}" for name, value in peak.items())
-        reasons.append(
-            f"peak-driven degradation ({listed}): OpenSees's Bouc-Wen materials "
-            "degrade with the dissipated energy only, not with the largest "
-            "displacement reached"
-        )
+
+    def drop_group(what: str, names: tuple[str, ...], why: str) -> None:
+        on = {name: p[name] for name in names if p.get(name, 0.0) != 0}
+        if on:
+            dropped.append(what)
+            listed = ", ".join(f"{name}={value:.4g}" for name, value in on.items())
+            reasons.append(f"{what} ({listed}): {why}")
+
+    drop_group(
+        "peak-driven degradation",
+        _PEAK_DEGRADATION,
+        "OpenSees's Bouc-Wen materials degrade with the dissipated energy only, not "
+        "with the largest displacement reached",
+    )
     if p["yield_skew"] != 0 or p["stiffness_skew"] != 0:
         dropped.append("asymmetry")
         reasons.append(
@@ -276,14 +281,11 @@ def opensees_material(
             f"{p['stiffness_skew']:.4g}): OpenSees Bouc-Wen materials are symmetric "
             "(one saturation level, one post-yield stiffness)"
         )
-    drift = {name: p[name] for name in _DRIFT if p.get(name, 0.0) != 0}
-    if drift:
-        dropped.append("drift")
-        listed = ", ".join(f"{name}={value:.4g}" for name, value in drift.items())
-        reasons.append(
-            f"drift ({listed}): a load-cell offset and slow drift of the test, not a "
-            "property of the member"
-        )
+    drop_group(
+        "drift",
+        _DRIFT,
+        "a load-cell offset and slow drift of the test, not a property of the member",
+    )
     for name in model.parameter_names:
         if name not in _KNOWN and p[name] != 0:
             dropped.append(name)
