@@ -43,7 +43,7 @@ from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from .._inputs import InputPath
 from .._smoothing import AbstractSmoothing, ExactSign
@@ -243,6 +243,21 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         else:
             edot = (1 - self.alpha) * self.k * z * xdot / self.energy_scale
         return jnp.stack([zdot, edot, zero])
+
+    def degradation_factors(
+        self, energy: Float[ArrayLike, ""], peak: Float[ArrayLike, ""]
+    ) -> tuple[Float[Array, ""], Float[Array, ""]]:
+        """(nu, eta) after dissipating `energy` (in `energy_scale` units) with the
+        largest |x| so far `peak`: the strength and stiffness factors the hysteretic
+        law divides by (1 where the rates are zero)."""
+        one = jnp.ones_like(jnp.asarray(energy))
+        nu = self._degradation(
+            "strength_degradation", "peak_strength_degradation", energy, peak
+        )
+        eta = self._degradation(
+            "stiffness_degradation", "peak_stiffness_degradation", energy, peak
+        )
+        return (one if nu is None else nu, one if eta is None else eta)
 
     def _degradation(self, energy_rate: str, peak_rate: str, energy, peak):
         """nu or eta: 1 + energy_rate*e + peak_rate*p (floored at 0.01), or None

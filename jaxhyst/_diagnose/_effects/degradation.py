@@ -76,18 +76,9 @@ class Degradation(AbstractEffect):
         n = float(model.n)
         # The largest |x| of the record (set by `around`; unset, no peak term).
         peak = float(model.displacement_scale)
-        peak = peak if peak < 1e29 else 0.0
-        nu = max(
-            1
-            + float(model.strength_degradation) * energy
-            + float(model.peak_strength_degradation) * peak,
-            1e-2,
-        )
-        eta = max(
-            1
-            + float(model.stiffness_degradation) * energy
-            + float(model.peak_stiffness_degradation) * peak,
-            1e-2,
+        nu, eta = (
+            float(f)
+            for f in model.degradation_factors(energy, peak if peak < 1e29 else 0.0)
         )
         # At the end of the test: the hysteretic force saturates at nu^(-1/n) of its
         # first level and the hysteretic tangent is 1/eta of its first value. Judged
