@@ -20,8 +20,9 @@ equations as `StructuralBoucWen`, whose energy is divided by `energy_scale`. Hen
   Shi = pinch_width*zu, deltaShi = 0, lamda = pinch_lambda; it has no nu, eta, so
   degradation is dropped when both are on;
 - neither has peak-driven degradation (peak_strength_degradation,
-  peak_stiffness_degradation), asymmetry (yield_skew, stiffness_skew) or drift
-  (offset, trend, curvature, wander).
+  peak_stiffness_degradation), the series slip (slip_length, with its slip_window),
+  asymmetry (yield_skew, stiffness_skew) or drift (offset, trend, curvature,
+  wander).
 """
 
 import ctypes
@@ -69,6 +70,8 @@ _KNOWN = frozenset(
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
+        "slip_length",
+        "slip_window",
         "yield_skew",
         "stiffness_skew",
     )
@@ -273,6 +276,13 @@ def opensees_material(
         _PEAK_DEGRADATION,
         "OpenSees's Bouc-Wen materials degrade with the dissipated energy only, not "
         "with the largest displacement reached",
+    )
+    drop_group(
+        "series slip",
+        ("slip_length",),
+        "no OpenSees Bouc-Wen material has a slip in series whose length grows "
+        f"with the largest displacement (its force window: slip_window="
+        f"{p['slip_window']:.4g} F_y)",
     )
     if p["yield_skew"] != 0 or p["stiffness_skew"] != 0:
         dropped.append("asymmetry")

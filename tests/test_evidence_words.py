@@ -367,6 +367,18 @@ def test_degradation_names_what_the_fitted_values_show():
 def test_pinching_quotes_the_fitted_slip_lock_and_no_unsupported_place():
     text = jh.Pinching().evidence(CYCLES["noise"], STRUCTURAL_MODEL)
     assert "up to 40% of the hysteretic stiffness" in text and NO_SUPPORT in text
+    assert "series slip" not in text
+    # The series slip alone: quoted, and no slip-lock claimed at 0 %.
+    slip = STRUCTURAL_MODEL.replace(pinch=0.0, slip_length=0.25)
+    text = jh.Pinching().evidence(CYCLES["noise"], slip)
+    assert "series slip moves 25% of the largest displacement" in text
+    assert "slip-lock" not in text and NO_SUPPORT in text
+    reading = jh.Pinching().reading(
+        jh.Pinching().values(slip),
+        {},
+        jh.Pinching().units(time="s", input="mm", output="kN"),
+    )
+    assert "no slip-lock (pinch = 0)" in reading and "a series slip of 25" in reading
 
 
 def test_describe_cycles_names_only_what_stands_out():

@@ -135,6 +135,11 @@ def test_asymmetry_drift_and_smoothing_are_dropped():
     assert peak.dropped == ("peak-driven degradation",)
     assert "peak_stiffness_degradation=0.02" in peak.note
     assert "peak_strength_degradation" not in peak.note
+    slip = opensees_material(_structural(pinch=0.5, slip_length=0.3))
+    assert slip.material == "BWBN" and slip.dropped == ("series slip",)
+    assert "slip_length=0.3" in slip.note and "slip_window=0.1" in slip.note
+    # Its window is a shape parameter: inert, and not dropped, while the slip is off.
+    assert opensees_material(_structural(slip_window=0.5)).exact
 
 
 def test_bouc_wen_is_converted_to_the_structural_gauge():

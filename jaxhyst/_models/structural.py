@@ -17,6 +17,16 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   h = 1 - zeta1*exp(-((z*sign(xdot) - q*zu)/zeta2)^2), zeta1 = pinch*(1 - exp(-pinch_rate*e)),
   zeta2 = pinch_width*zu*(pinch_lambda + zeta1), zu = (1/(beta + gamma))^(1/n)
   (OpenSees `BWBN` with zetas = pinch, q = pinch_shift, p = pinch_rate, Shi = pinch_width*zu);
+  and, for a slip that widens with the largest excursion (bolt holes ovalising, crack
+  openings, dowel embedment), Sivaselvan and Reinhorn's (2000) slip-lock: a slip s
+  in series with the element, whose compliance is a Gaussian in the force F_e the
+  element carries, ds = a/(sqrt(2 pi)*sigma)*exp(-(F_e/sigma)^2/2)*dF_e, so that
+  s = a*(Phi(F_e/sigma) - 1/2) crosses from -a/2 to a/2 as the force crosses zero,
+  a = slip_length*p (p the largest |x| so far; where p grows, s grows with it on the
+  side the force is, per sample), over a force window sigma = slip_window*F_y,
+  F_y = (1 - alpha)*k*zu; the element sees x - s and moves at xdot/(1 + c*K_t), c
+  that compliance and K_t the element's tangent stiffness (no OpenSees material has
+  it);
 - asymmetry (push and pull differ): the shape term (beta*sign(xdot*z) + gamma)*|z|^n is
   multiplied by 1 + yield_skew*sign(z) (the two sides yield at different levels,
   zu*(1 + yield_skew*sign(z))^(-1/n), with the same loop shape) and
@@ -34,14 +44,16 @@ about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
 The peak p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
 the test has reached 10 mm); it is kept exactly, per sample (`sample_update`), so the
 model runs under `RK4` with one step per sample (substeps allowed) unless both peak
-rates are held at zero: `model.held_at_zero(["peak_strength_degradation",
-"peak_stiffness_degradation"])` runs under diffrax and coarse RK4 steps as before.
-State: (z, e, p).
+rates and the slip length are held at zero: `model.held_at_zero(
+["peak_strength_degradation", "peak_stiffness_degradation", "slip_length"])` runs
+under diffrax and coarse RK4 steps as before.
+State: (z, e, p, s): s the slip-lock's slip (zero while slip_length is).
 """
 
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -85,6 +97,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     pinch_shift: Float[Array, ""] = _field(0.1)
     pinch_width: Float[Array, ""] = _field(0.3)
     pinch_rate: Float[Array, ""] = _field(5.0)
+    slip_length: Float[Array, ""] = _field(0.0)
+    slip_window: Float[Array, ""] = _field(0.1)
     yield_skew: Float[Array, ""] = _field(0.0)
     stiffness_skew: Float[Array, ""] = _field(0.0)
     offset: Float[Array, ""] = _field(0.0)
@@ -118,6 +132,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
+        "slip_length",
+        "slip_window",
         "yield_skew",
         "stiffness_skew",
         "offset",
@@ -125,7 +141,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         "curvature",
         "wander",
     )
-    state_size: ClassVar[int] = 3
+    state_size: ClassVar[int] = 4
     # Degradation only degrades: a member does not get stronger or stiffer as a test
     # goes on (a fitted strengthening would stand in for a stiffening the catalogue
     # has no name for, such as a static hardening under growing amplitudes).
@@ -134,6 +150,9 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         "stiffness_degradation": 0.0,
         "peak_strength_degradation": 0.0,
         "peak_stiffness_degradation": 0.0,
+        # Neither pinching form can speed the hysteretic rate up or slip backwards.
+        "pinch": 0.0,
+        "slip_length": 0.0,
     }
 
     @classmethod
@@ -230,19 +249,61 @@ class StructuralBoucWen(AbstractGainHoldingModel):
             zeta2 = jnp.where(jnp.abs(zeta2) > 1e-30, zeta2, 1e-30)
             distance = (z * s.sign(xdot) - self.pinch_shift * zu) / zeta2
             zdot = (1 - zeta1 * jnp.exp(-(distance**2))) * zdot
-        zdot = zdot * xdot
         eta = self._degradation(
             "stiffness_degradation", "peak_stiffness_degradation", energy, peak
         )
         if eta is not None:
             zdot = zdot / eta
+        # zdot is now dz/dx_e, x_e = x - s the element's own displacement.
         zero = jnp.zeros_like(zdot)
+        if self._holds("slip_length"):
+            element_rate, slip_rate = xdot, zero
+        else:
+            element_rate = xdot / (1 + self._slip_compliance(x, state, zdot))
+            slip_rate = xdot - element_rate
+        zdot = zdot * element_rate
         # Nothing reads the dissipated energy, or the peak, where its gains are held.
         if self._holds("strength_degradation", "stiffness_degradation", "pinch"):
             edot = zero
         else:
-            edot = (1 - self.alpha) * self.k * z * xdot / self.energy_scale
-        return jnp.stack([zdot, edot, zero])
+            edot = (1 - self.alpha) * self.k * z * element_rate / self.energy_scale
+        return jnp.stack([zdot, edot, zero, slip_rate])
+
+    def _slip_compliance(self, x, state, dz_dxe):
+        """c*K_t: the slip-lock's compliance at the element's force times the
+        element's tangent stiffness (>= 0), so that x_e moves at xdot/(1 + c*K_t).
+        The slip length is the one at the sample's start (state[2]): its growth
+        within the sample is added at its end (`sample_update`), which keeps
+        s = a*(Phi(F_e/sigma) - 1/2) exactly."""
+        s = self.smoothing
+        element = x - state[3]
+        tangent = (
+            self.alpha * self.k * (1 + self._gain("stiffness_skew") * s.sign(element))
+            + (1 - self.alpha) * self.k * dz_dxe
+        )
+        window = self._slip_window_force()
+        force = self._element_force(element, state[0])
+        compliance = (
+            self.slip_length
+            * state[2]
+            / (jnp.sqrt(2 * jnp.pi) * window)
+            * jnp.exp(-0.5 * (force / window) ** 2)
+        )
+        return compliance * jnp.maximum(tangent, 0.0)
+
+    def _slip_window_force(self):
+        """sigma = slip_window*F_y, F_y = (1 - alpha)*k*zu: the force window."""
+        window = self.slip_window * (1 - self.alpha) * self.k * self.saturation()
+        return jnp.maximum(jnp.abs(window), 1e-30)
+
+    def _element_force(self, element, z):
+        """The force the element carries at its displacement `element` = x - s."""
+        return (
+            self.alpha
+            * self.k
+            * (element + self._gain("stiffness_skew") * self.smoothing.abs(element))
+            + (1 - self.alpha) * self.k * z
+        )
 
     def degradation_factors(
         self, energy: Float[ArrayLike, ""], peak: Float[ArrayLike, ""]
@@ -270,29 +331,42 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     def initial_state(self, drive):
         u = jnp.asarray(drive.u)
         zero = jnp.zeros_like(u)
-        return jnp.stack([zero, zero, jnp.abs(u)])
+        return jnp.stack([zero, zero, jnp.abs(u), zero])
 
     def sample_update(self, inputs):
-        """With a peak-driven degradation on: the peak state takes each sample's |x|
-        where it is larger (exact; the ODE leaves it alone). None while both peak
-        rates are held at zero, so fits without them keep coarse RK4 steps."""
-        if self._holds("peak_strength_degradation", "peak_stiffness_degradation"):
+        """With a peak-driven degradation or the slip-lock on: the peak state takes
+        each sample's |x| where it is larger (exact; the ODE leaves it alone), and the
+        slip grows with it (keeping s = a*(Phi(F_e/sigma) - 1/2) as a grows). None
+        while those gains are held at zero, so fits without them keep coarse RK4
+        steps."""
+        if self._holds(
+            "peak_strength_degradation", "peak_stiffness_degradation", "slip_length"
+        ):
             return None
         values = inputs.values
+        slips = not self._holds("slip_length")
 
         def update(start, end, interval):
-            return end.at[2].set(jnp.maximum(start[2], jnp.abs(values[interval + 1])))
+            x = values[interval + 1]
+            peak = jnp.maximum(start[2], jnp.abs(x))
+            end = end.at[2].set(peak)
+            if slips:
+                # The slip is a*(Phi(F_e/sigma) - 1/2), a = slip_length*peak: where
+                # the peak grew, the slip grows with it on the side the force is.
+                force = self._element_force(x - end[3], end[0])
+                half = 0.5 * jax.scipy.special.erf(
+                    force / (jnp.sqrt(2.0) * self._slip_window_force())
+                )
+                end = end.at[3].add(self.slip_length * (peak - start[2]) * half)
+            return end
 
         return update
 
     def output(self, t, state, drive):
         s = (t - self.time_center) / self.time_scale
-        x = drive.u
+        element = drive.u if self._holds("slip_length") else drive.u - state[3]
         return (
-            self.alpha
-            * self.k
-            * (x + self._gain("stiffness_skew") * self.smoothing.abs(x))
-            + (1 - self.alpha) * self.k * state[0]
+            self._element_force(element, state[0])
             + self._gain("offset")
             + legendre_drift(
                 s, *(self._gain(n) for n in ("trend", "curvature", "wander"))

@@ -16,9 +16,14 @@ from .base import (
 
 
 class Pinching(AbstractEffect):
-    """`StructuralBoucWen`'s Baber-Noori / BWBN slip-lock: the hysteretic rate
-    drops near z = pinch_shift*zu on reloading, by up to `pinch` (grown in with the
-    dissipated energy at `pinch_rate`, over a width set by `pinch_width`)."""
+    """`StructuralBoucWen`'s two pinching forms, either or both: the Baber-Noori /
+    BWBN slip-lock (the hysteretic rate drops near z = pinch_shift*zu on reloading,
+    by up to `pinch`, grown in with the dissipated energy at `pinch_rate`, over a
+    width set by `pinch_width`) and Sivaselvan-Reinhorn's series slip (each passage
+    through zero force slips by up to `slip_length` times the largest displacement
+    so far, within a force window `slip_window` times the yield force): the first
+    narrows the loop by the same share at every amplitude once the energy has grown
+    it in, the second by a slip that widens with the largest excursion."""
 
     name: ClassVar[str] = "pinching"
     parameters: ClassVar[tuple[str, ...]] = (
@@ -26,17 +31,25 @@ class Pinching(AbstractEffect):
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
+        "slip_length",
+        "slip_window",
     )
     meaning: ClassVar[str] = (
         "the loop narrows near zero force on reloading (slip-lock: cracks closing, "
         "bolts slipping in their holes, gaps in connections)"
     )
-    log_scaled: ClassVar[tuple[str, ...]] = ("pinch_width", "pinch_rate")
+    log_scaled: ClassVar[tuple[str, ...]] = ("pinch_width", "pinch_rate", "slip_window")
     shape_parameters: ClassVar[tuple[str, ...]] = (
         "pinch_shift",
         "pinch_width",
         "pinch_rate",
+        "slip_window",
     )
+    # Each form's gain and the shape parameters inert while it is zero.
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "pinch": ("pinch_shift", "pinch_width", "pinch_rate"),
+        "slip_length": ("slip_window",),
+    }
 
     def bounds(self, name, value, scales: RefitScales):
         return {
@@ -44,7 +57,20 @@ class Pinching(AbstractEffect):
             "pinch_shift": (-0.5, 1.5),
             "pinch_width": (0.02, 3.0),
             "pinch_rate": (0.05, 500.0),
+            "slip_length": (0.0, 1.5),
+            "slip_window": (0.01, 1.0),
         }.get(name)
+
+    def fitted_dof(self, model):
+        """A form left at zero fitted neither its gain nor its inert shape."""
+        return max(
+            sum(
+                1 + len(shape)
+                for gain, shape in self.forms.items()
+                if float(getattr(model, gain)) != 0.0
+            ),
+            1,
+        )
 
     def starting_points(self, current, step, scales):
         # The score only sees `pinch` at the default shape; a pinched loop's shape
@@ -57,13 +83,19 @@ class Pinching(AbstractEffect):
             current.replace(pinch=p, pinch_shift=q, pinch_width=w, pinch_rate=r)
             for p, q, w, r in grid
         ]
+        # The series slip: how far it slips per passage, over how wide a window.
+        models += [
+            current.replace(slip_length=a, slip_window=w)
+            for a, w in itertools.product((0.1, 0.3, 0.7), (0.05, 0.2))
+        ]
         return models
 
     def always_refit(self):
         return True
 
     def evidence(self, where, model):
-        pinch = float(model_as(model, StructuralBoucWen, self.name).pinch)
+        model = model_as(model, StructuralBoucWen, self.name)
+        pinch, slip = float(model.pinch), float(model.slip_length)
         why = "where a slip-lock shows"
         located = conclude(
             [
@@ -76,10 +108,18 @@ class Pinching(AbstractEffect):
                 ),
             ]
         )
-        return (
-            f"the fitted slip-lock takes up to {pinch:.0%} of the hysteretic "
-            f"stiffness near zero force; {located}"
-        )
+        parts = []
+        if pinch != 0.0 or slip == 0.0:
+            parts.append(
+                f"the fitted slip-lock takes up to {pinch:.0%} of the hysteretic "
+                "stiffness near zero force"
+            )
+        if slip != 0.0:
+            parts.append(
+                f"the fitted series slip moves {slip:.0%} of the largest "
+                "displacement so far at each passage through zero force"
+            )
+        return f"{' and '.join(parts)}; {located}"
 
     def units(self, *, time, input, output):
         # zeta1 = pinch*(1 - exp(-pinch_rate*e)) is a share of the hysteretic rate;
@@ -90,6 +130,8 @@ class Pinching(AbstractEffect):
             "pinch_shift": "zu",
             "pinch_width": "zu",
             "pinch_rate": ENERGY_UNIT,
+            "slip_length": "1",
+            "slip_window": "F_y",
         }
 
     def reading(self, values, errors, units):
@@ -103,8 +145,19 @@ class Pinching(AbstractEffect):
             f"dissipated energy (pinch_rate = {q('pinch_rate')})"
         )
         if values["pinch"] == 0:
-            return f"no slip-lock (pinch = 0), so its shape is inert: {shape}"
+            lock = f"no slip-lock (pinch = 0), so its shape is inert: {shape}"
+        else:
+            lock = (
+                f"a slip-lock takes up to {q('pinch', 100.0, '%')} of the hysteretic "
+                f"stiffness {shape}"
+            )
+        window = (
+            f"within a force window of {q('slip_window')} (F_y: the yield force "
+            "(1 - alpha)*k*zu)"
+        )
+        if values["slip_length"] == 0:
+            return f"{lock}; no series slip (slip_length = 0; its {window} is inert)"
         return (
-            f"a slip-lock takes up to {q('pinch', 100.0, '%')} of the hysteretic "
-            f"stiffness {shape}"
+            f"{lock}; a series slip of {q('slip_length', 100.0, '%')} of the largest "
+            f"displacement so far at each passage through zero force, {window}"
         )
