@@ -422,8 +422,13 @@ class _SlipLockOnly(jh.Pinching):
     alone (its four parameters)."""
 
     parameters: ClassVar[tuple[str, ...]] = jh.Pinching.parameters[:4]
+    log_scaled: ClassVar[tuple[str, ...]] = jh.Pinching.log_scaled[:2]
     shape_parameters: ClassVar[tuple[str, ...]] = jh.Pinching.shape_parameters[:3]
     forms: ClassVar[dict[str, tuple[str, ...]]] = {"pinch": jh.Pinching.forms["pinch"]}
+
+    def reading(self, values, errors, units):
+        inert = {"slip_length": 0.0, "slip_window": 0.1}  # not this form
+        return super().reading({**values, **inert}, errors, units)
 
     def starting_points(self, current, step, scales):
         return [
