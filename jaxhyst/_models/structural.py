@@ -364,9 +364,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
 
     def output(self, t, state, drive):
         s = (t - self.time_center) / self.time_scale
-        element = drive.u if self._holds("slip_length") else drive.u - state[3]
         return (
-            self._element_force(element, state[0])
+            self._element_force(drive.u - state[3], state[0])
             + self._gain("offset")
             + legendre_drift(
                 s, *(self._gain(n) for n in ("trend", "curvature", "wander"))

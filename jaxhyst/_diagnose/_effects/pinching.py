@@ -39,17 +39,14 @@ class Pinching(AbstractEffect):
         "bolts slipping in their holes, gaps in connections)"
     )
     log_scaled: ClassVar[tuple[str, ...]] = ("pinch_width", "pinch_rate", "slip_window")
-    shape_parameters: ClassVar[tuple[str, ...]] = (
-        "pinch_shift",
-        "pinch_width",
-        "pinch_rate",
-        "slip_window",
-    )
     # Each form's gain and the shape parameters inert while it is zero.
     forms: ClassVar[dict[str, tuple[str, ...]]] = {
         "pinch": ("pinch_shift", "pinch_width", "pinch_rate"),
         "slip_length": ("slip_window",),
     }
+    shape_parameters: ClassVar[tuple[str, ...]] = tuple(
+        p for shape in forms.values() for p in shape
+    )
 
     def bounds(self, name, value, scales: RefitScales):
         return {
