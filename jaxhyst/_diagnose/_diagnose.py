@@ -21,6 +21,7 @@ from jaxtyping import Array, PRNGKeyArray
 
 from .._identification._identify import Fit, identify
 from .._inputs import InputPath
+from .._memory_maps import release_if_near_map_limit
 from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel
 from .._params import ParameterSpace
@@ -948,6 +949,7 @@ def _forward(ctx: _Context, state: _State) -> _State:
         if not _unscored(ctx, state):
             break
         ctx.progress.say(f"round {number}: scoring {_remaining(ctx, state)}")
+        release_if_near_map_limit("diagnose")
         state, scores, natural, column = _score_round(ctx, state)
         if any(c.significant for c in scores):
             # Refits (this round's and any later stage's) use these scales.
@@ -1501,6 +1503,7 @@ def _diagnose(
     progress: bool,
 ) -> Diagnosis:
     start_time = time.perf_counter()
+    release_if_near_map_limit("diagnose")
     recording = records.joined
     masks = [family.holdout(each, holdout_fraction) for each in records.recordings]
     for each, mask in zip(records.recordings, masks):

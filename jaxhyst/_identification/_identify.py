@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
+from .._memory_maps import release_if_near_map_limit
 from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel, DataScales
 from .._params import ParameterSpace
@@ -392,6 +393,7 @@ def identify(
         for r, w in zip(records, _weights(weights, records))
     ]
     problem = per_record[0] if len(records) == 1 else stack_problems(per_record)
+    release_if_near_map_limit("identify")
     timing: dict[str, float] = {}
     stride = swarm_stride or min(swarm_samples_per_step(r.u) for r in records)
     seeds, swarm_result = starting_points(
