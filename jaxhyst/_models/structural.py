@@ -285,7 +285,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         force = self._element_force(element, state[0])
         compliance = (
             self.slip_length
-            * state[2]
+            * jnp.maximum(state[2] - self.saturation(), 0.0)
             / (jnp.sqrt(2 * jnp.pi) * window)
             * jnp.exp(-0.5 * (force / window) ** 2)
         )
@@ -325,7 +325,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         where both gains are held (the factor is exactly 1)."""
         if self._holds(energy_rate, peak_rate):
             return None
-        factor = 1 + self._gain(energy_rate) * energy + self._gain(peak_rate) * peak
+        excess = jnp.maximum(peak - self.saturation(), 0.0)
+        factor = 1 + self._gain(energy_rate) * energy + self._gain(peak_rate) * excess
         return jnp.maximum(factor, 1e-2)
 
     def initial_state(self, drive):
@@ -357,7 +358,9 @@ class StructuralBoucWen(AbstractGainHoldingModel):
                 half = 0.5 * jax.scipy.special.erf(
                     force / (jnp.sqrt(2.0) * self._slip_window_force())
                 )
-                end = end.at[3].add(self.slip_length * (peak - start[2]) * half)
+                zu = self.saturation()
+                grown = jnp.maximum(peak - zu, 0.0) - jnp.maximum(start[2] - zu, 0.0)
+                end = end.at[3].add(self.slip_length * grown * half)
             return end
 
         return update
