@@ -348,13 +348,15 @@ def test_degradation_names_what_the_fitted_values_show():
     assert f"strength is down {strength:.0%}" in text
     # A rate at its floor reads as no change (not "up -0%").
     assert "its stiffness unchanged" in text and "-0%" not in text
-    # The peak-driven rates count at the record's largest displacement.
+    # The peak-driven rates count from the yield displacement zu (1 here) to the
+    # record's largest displacement (10).
     peak = eqx.tree_at(
         lambda m: m.displacement_scale,
         none.replace(peak_strength_degradation=0.05),
         jnp.asarray(10.0),
     )
-    assert f"strength is down {1 - 1.5 ** (-1 / 1.5):.0%}" in (
+    assert float(peak.saturation()) == pytest.approx(1.0)
+    assert f"strength is down {1 - 1.45 ** (-1 / 1.5):.0%}" in (
         jh.Degradation().evidence(where, peak)
     )
     both = STRUCTURAL_MODEL.replace(stiffness_degradation=0.05)
@@ -371,7 +373,7 @@ def test_pinching_quotes_the_fitted_slip_lock_and_no_unsupported_place():
     # The series slip alone: quoted, and no slip-lock claimed at 0 %.
     slip = STRUCTURAL_MODEL.replace(pinch=0.0, slip_length=0.25)
     text = jh.Pinching().evidence(CYCLES["noise"], slip)
-    assert "series slip moves 25% of the largest displacement" in text
+    assert "series slip moves 25% of the largest displacement beyond" in text
     assert "slip-lock" not in text and NO_SUPPORT in text
     reading = jh.Pinching().reading(
         jh.Pinching().values(slip),

@@ -89,9 +89,35 @@ def test_peak_driven_degradation_reads_the_largest_displacement_so_far():
     )
 
 
+def test_the_peak_drivers_wait_for_the_test_to_yield():
+    # The peak-driven degradation and the series slip grow with the largest
+    # excursion past the yield displacement zu: while the test stays within zu the
+    # force is exactly the plain one, and once it passes zu they act.
+    x = _protocol(levels=(0.5, 1.0, 4.0), cycles=2)
+    path = jh.Recording.quasi_static(x, x).input_path()
+    plain = _truth(x)
+    zu = float(plain.saturation())
+    assert 1.0 < zu < 4.0
+    model = plain.replace(
+        peak_strength_degradation=0.2,
+        peak_stiffness_degradation=0.1,
+        slip_length=0.3,
+        slip_window=0.1,
+    )
+    solver = jh.RK4(substeps=4)
+    force = np.asarray(jh.simulate(model, path, solver))
+    plain_force = np.asarray(jh.simulate(plain, path, solver))
+    within = np.maximum.accumulate(np.abs(x)) <= zu
+    assert within[:320].all() and not within.all()
+    np.testing.assert_allclose(force[within], plain_force[within], rtol=0, atol=1e-12)
+    departure = np.max(np.abs(force - plain_force)[~within])
+    assert departure > 0.05 * np.max(np.abs(plain_force))
+    np.testing.assert_allclose(model.excess(np.array([0.5, zu, 4.0])), [0, 0, 4 - zu])
+
+
 def test_series_slip_widens_with_the_largest_displacement_and_pinches_the_loop():
     # Sivaselvan-Reinhorn's slip-lock: each passage through zero force slips by up
-    # to slip_length times the largest |x| so far, from -a/2 to a/2 (centred: the
+    # to slip_length times the largest |x| so far beyond zu, from -a/2 to a/2 (centred: the
     # slip does not shift one side of the loop), so the slip's swing grows with the
     # test's levels, and the loop's slope at zero force falls.
     levels = (1, 2, 4, 8)
@@ -102,11 +128,12 @@ def test_series_slip_widens_with_the_largest_displacement_and_pinches_the_loop()
     solver = jh.RK4(substeps=4)
     force, states = jh.simulate(model, path, solver, return_state=True)
     force, slip, peak = np.asarray(force), np.asarray(states[:, 3]), states[:, 2]
-    assert np.all(np.abs(slip) <= 0.15 * 1.01 * np.asarray(peak) + 1e-9)
+    excess = np.asarray(model.excess(peak))
+    assert np.all(np.abs(slip) <= 0.15 * 1.01 * excess + 1e-9)
     per_level = 160
     swings = [np.ptp(slip[i * per_level : (i + 1) * per_level]) for i in range(4)]
     assert np.all(np.diff(swings) > 0), swings
-    assert swings[-1] > 0.5 * 0.3 * levels[-1]  # most of a passage's slip happens
+    assert swings[-1] > 0.5 * 0.3 * excess[-1]  # most of a passage's slip happens
     top, bottom = np.max(slip[-per_level:]), -np.min(slip[-per_level:])
     assert abs(top - bottom) < 0.1 * (top + bottom), (top, bottom)
     plain_force = np.asarray(jh.simulate(plain, path, solver))

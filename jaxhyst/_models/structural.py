@@ -8,9 +8,11 @@ uses, so a fitted model exports exactly where OpenSees has the material:
 - degradation (Baber-Wen, and its ductility-driven form): nu = 1 +
   strength_degradation*e + peak_strength_degradation*p, eta = 1 +
   stiffness_degradation*e + peak_stiffness_degradation*p, with e the dissipated
-  hysteretic energy and p the largest |x| reached so far (RC members lose stiffness
-  and strength with the largest excursion as well as with the energy; Park-Ang's
-  damage index combines the two); zdot = Phi/eta * xdot where
+  hysteretic energy and p = (max|x| - zu)+ the largest excursion so far beyond the
+  yield displacement zu (the ductility excess, (mu - 1)*x_y: RC members lose
+  stiffness and strength with the largest excursion past yield as well as with the
+  energy, and not before they yield; Park-Ang's damage index combines the two);
+  zdot = Phi/eta * xdot where
   Phi = A - nu*(beta*sign(xdot*z) + gamma)*|z|^n (OpenSees `BoucWen`'s deltaNu,
   deltaEta; it has no peak-driven terms);
 - pinching (Baber-Noori, Foliente's BWBN): zdot *= h(z) with
@@ -22,8 +24,10 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   in series with the element, whose compliance is a Gaussian in the force F_e the
   element carries, ds = a/(sqrt(2 pi)*sigma)*exp(-(F_e/sigma)^2/2)*dF_e, so that
   s = a*(Phi(F_e/sigma) - 1/2) crosses from -a/2 to a/2 as the force crosses zero,
-  a = slip_length*p (p the largest |x| so far; where p grows, s grows with it on the
-  side the force is, per sample), over a force window sigma = slip_window*F_y,
+  a = slip_length*p (p = (max|x| - zu)+ as above: the slip opens once the test
+  passes yield, as bolt holes ovalise and cracks stay open; where p grows, s grows
+  with it on the side the force is, per sample), over a force window
+  sigma = slip_window*F_y,
   F_y = (1 - alpha)*k*zu; the element sees x - s and moves at xdot/(1 + c*K_t), c
   that compliance and K_t the element's tangent stiffness (no OpenSees material has
   it);
@@ -41,8 +45,9 @@ model exports to BWBN inexactly.
 The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the record,
 set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
 about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
-The peak p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
-the test has reached 10 mm); it is kept exactly, per sample (`sample_update`), so the
+The excess p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
+the test has gone 10 mm past zu); the largest |x| is kept exactly, per sample
+(`sample_update`), so the
 model runs under `RK4` with one step per sample (substeps allowed) unless both peak
 rates and the slip length are held at zero: `model.held_at_zero(
 ["peak_strength_degradation", "peak_stiffness_degradation", "slip_length"])` runs
@@ -216,6 +221,12 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         total = jnp.maximum(self.beta + self.gamma, 1e-30)
         return jnp.minimum(jnp.exp(-jnp.log(total) / self.n), self.reach())
 
+    def excess(self, peak: Float[ArrayLike, ""]) -> Float[Array, ""]:
+        """(peak - zu)+: how far the largest |x| so far has gone past the yield
+        displacement zu (`saturation`), what the peak-driven degradation and the
+        series slip's length grow with (zero until the test yields)."""
+        return jnp.maximum(jnp.asarray(peak) - self.saturation(), 0.0)
+
     def reach(self) -> Float[Array, ""]:
         """The largest hysteretic displacement the record can show: the smaller of
         its max|x| (`displacement_scale`) and the z whose hysteretic force
@@ -272,7 +283,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     def _slip_compliance(self, x, state, dz_dxe):
         """c*K_t: the slip-lock's compliance at the element's force times the
         element's tangent stiffness (>= 0), so that x_e moves at xdot/(1 + c*K_t).
-        The slip length is the one at the sample's start (state[2]): its growth
+        The slip length is the one at the sample's start (from state[2]): its growth
         within the sample is added at its end (`sample_update`), which keeps
         s = a*(Phi(F_e/sigma) - 1/2) exactly."""
         s = self.smoothing
@@ -285,7 +296,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         force = self._element_force(element, state[0])
         compliance = (
             self.slip_length
-            * jnp.maximum(state[2] - self.saturation(), 0.0)
+            * self.excess(state[2])
             / (jnp.sqrt(2 * jnp.pi) * window)
             * jnp.exp(-0.5 * (force / window) ** 2)
         )
@@ -321,11 +332,11 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         return (one if nu is None else nu, one if eta is None else eta)
 
     def _degradation(self, energy_rate: str, peak_rate: str, energy, peak):
-        """nu or eta: 1 + energy_rate*e + peak_rate*p (floored at 0.01), or None
-        where both gains are held (the factor is exactly 1)."""
+        """nu or eta: 1 + energy_rate*e + peak_rate*(peak - zu)+ (floored at 0.01),
+        or None where both gains are held (the factor is exactly 1)."""
         if self._holds(energy_rate, peak_rate):
             return None
-        excess = jnp.maximum(peak - self.saturation(), 0.0)
+        excess = self.excess(peak)
         factor = 1 + self._gain(energy_rate) * energy + self._gain(peak_rate) * excess
         return jnp.maximum(factor, 1e-2)
 
@@ -352,14 +363,14 @@ class StructuralBoucWen(AbstractGainHoldingModel):
             peak = jnp.maximum(start[2], jnp.abs(x))
             end = end.at[2].set(peak)
             if slips:
-                # The slip is a*(Phi(F_e/sigma) - 1/2), a = slip_length*peak: where
-                # the peak grew, the slip grows with it on the side the force is.
+                # The slip is a*(Phi(F_e/sigma) - 1/2), a = slip_length*excess:
+                # where the excess grew, the slip grows with it on the side the
+                # force is.
                 force = self._element_force(x - end[3], end[0])
                 half = 0.5 * jax.scipy.special.erf(
                     force / (jnp.sqrt(2.0) * self._slip_window_force())
                 )
-                zu = self.saturation()
-                grown = jnp.maximum(peak - zu, 0.0) - jnp.maximum(start[2] - zu, 0.0)
+                grown = self.excess(peak) - self.excess(start[2])
                 end = end.at[3].add(self.slip_length * grown * half)
             return end
 

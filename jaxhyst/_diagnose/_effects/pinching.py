@@ -21,9 +21,10 @@ class Pinching(AbstractEffect):
     by up to `pinch`, grown in with the dissipated energy at `pinch_rate`, over a
     width set by `pinch_width`) and Sivaselvan-Reinhorn's series slip (each passage
     through zero force slips by up to `slip_length` times the largest displacement
-    so far, within a force window `slip_window` times the yield force): the first
-    narrows the loop by the same share at every amplitude once the energy has grown
-    it in, the second by a slip that widens with the largest excursion."""
+    so far beyond the yield displacement zu, within a force window `slip_window`
+    times the yield force): the first narrows the loop by the same share at every
+    amplitude once the energy has grown it in, the second by a slip that opens with
+    the largest excursion past yield."""
 
     name: ClassVar[str] = "pinching"
     parameters: ClassVar[tuple[str, ...]] = (
@@ -114,7 +115,7 @@ class Pinching(AbstractEffect):
         if slip != 0.0:
             parts.append(
                 f"the fitted series slip moves {slip:.0%} of the largest "
-                "displacement so far at each passage through zero force"
+                "displacement beyond yield so far at each passage through zero force"
             )
         return f"{' and '.join(parts)}; {located}"
 
@@ -156,5 +157,6 @@ class Pinching(AbstractEffect):
             return f"{lock}; no series slip (slip_length = 0; its {window} is inert)"
         return (
             f"{lock}; a series slip of {q('slip_length', 100.0, '%')} of the largest "
-            f"displacement so far at each passage through zero force, {window}"
+            "displacement so far beyond the yield displacement zu at each passage "
+            f"through zero force, {window}"
         )
