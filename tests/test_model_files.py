@@ -43,6 +43,7 @@ _STRUCTURAL: dict[str, Any] = {
     "force_scale": 2.5,
     "time_center": 1.5,
     "time_scale": 1.5,
+    "peak_from_yield": False,
     "smoothing": jh.AlgebraicSign(1e-3),
 }
 
@@ -252,6 +253,21 @@ def test_other_format_version_names_both(tmp_path):
     _edit(file, lambda d: d.update(format_version=2))
     with pytest.raises(ValueError, match="format version 2.*format version 1"):
         jh.load_model(file, verify=False)
+
+
+def test_a_structural_file_without_the_peak_origin_is_refused_by_name(tmp_path):
+    # Files written before the peak drivers read the excursion past yield lack
+    # `peak_from_yield`: read with today's default, their peak rates would mean
+    # something else, so they are refused, naming the field.
+    file = jh.save_model(jh.StructuralBoucWen(**_STRUCTURAL), tmp_path / "m.json")
+
+    def older(data):
+        del data["model"]["fields"]["peak_from_yield"]
+        data["checksum"] = checksum(data)
+
+    _edit(file, older)
+    with pytest.raises(ValueError, match=r"missing field\(s\) \['peak_from_yield'\]"):
+        jh.load_model(file)
 
 
 def test_other_jaxhyst_version_loads(tmp_path):

@@ -1,6 +1,8 @@
 """The structural family: effects off at zero, the cycle hold-out, errors, and a
 quick positive and a quick clean diagnosis."""
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -113,6 +115,10 @@ def test_the_peak_drivers_wait_for_the_test_to_yield():
     departure = np.max(np.abs(force - plain_force)[~within])
     assert departure > 0.05 * np.max(np.abs(plain_force))
     np.testing.assert_allclose(model.excess(np.array([0.5, zu, 4.0])), [0, 0, 4 - zu])
+    # The earlier form, from zero, acts from the first cycle.
+    from_zero = dataclasses.replace(model, peak_from_yield=False)
+    early = np.asarray(jh.simulate(from_zero, path, solver))
+    assert np.max(np.abs(early - plain_force)[within]) > 0.01 * np.max(plain_force)
 
 
 def test_series_slip_widens_with_the_largest_displacement_and_pinches_the_loop():

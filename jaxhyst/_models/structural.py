@@ -46,7 +46,8 @@ The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the rec
 set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
 about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
 The excess p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
-the test has gone 10 mm past zu); the largest |x| is kept exactly, per sample
+the test has gone 10 mm past zu; `peak_from_yield=False` reads max|x| from zero
+instead, the form of earlier builds); the largest |x| is kept exactly, per sample
 (`sample_update`), so the
 model runs under `RK4` with one step per sample (substeps allowed) unless both peak
 rates and the slip length are held at zero: `model.held_at_zero(
@@ -116,6 +117,10 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     force_scale: Float[Array, ""] = _normaliser(1e30)
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
+    # Whether the peak drivers read the excursion past yield, (max|x| - zu)+ (True),
+    # or max|x| from zero (False: the form of earlier builds; their model files lack
+    # this field and are refused by name rather than read with another meaning).
+    peak_from_yield: bool = eqx.field(default=True, static=True, kw_only=True)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
     # Gains held at zero (`held_at_zero`): with pinch held no pinching (two
     # exponentials and a power per stage) is computed; with it and both energy
@@ -202,6 +207,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
             force_scale=jnp.maximum(output_scale, 1e-30),
             time_center=(inputs.t0 + inputs.t1) / 2,
             time_scale=(inputs.t1 - inputs.t0) / 2,
+            peak_from_yield=base.peak_from_yield,
             smoothing=base.smoothing,
         )
 
@@ -224,7 +230,10 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     def excess(self, peak: Float[ArrayLike, ""]) -> Float[Array, ""]:
         """(peak - zu)+: how far the largest |x| so far has gone past the yield
         displacement zu (`saturation`), what the peak-driven degradation and the
-        series slip's length grow with (zero until the test yields)."""
+        series slip's length grow with (zero until the test yields). With
+        `peak_from_yield=False`, the peak itself."""
+        if not self.peak_from_yield:
+            return jnp.asarray(peak, dtype=float)
         return jnp.maximum(jnp.asarray(peak) - self.saturation(), 0.0)
 
     def reach(self) -> Float[Array, ""]:
