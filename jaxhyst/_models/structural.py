@@ -232,9 +232,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         displacement zu (`saturation`), what the peak-driven degradation and the
         series slip's length grow with (zero until the test yields). With
         `peak_from_yield=False`, the peak itself."""
-        if not self.peak_from_yield:
-            return jnp.asarray(peak, dtype=float)
-        return jnp.maximum(jnp.asarray(peak) - self.saturation(), 0.0)
+        origin = self.saturation() if self.peak_from_yield else 0.0
+        return jnp.maximum(jnp.asarray(peak) - origin, 0.0)
 
     def reach(self) -> Float[Array, ""]:
         """The largest hysteretic displacement the record can show: the smaller of
@@ -341,7 +340,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         return (one if nu is None else nu, one if eta is None else eta)
 
     def _degradation(self, energy_rate: str, peak_rate: str, energy, peak):
-        """nu or eta: 1 + energy_rate*e + peak_rate*(peak - zu)+ (floored at 0.01),
+        """nu or eta: 1 + energy_rate*e + peak_rate*excess(peak) (floored at 0.01),
         or None where both gains are held (the factor is exactly 1)."""
         if self._holds(energy_rate, peak_rate):
             return None
