@@ -949,6 +949,7 @@ def _forward(ctx: _Context, state: _State) -> _State:
         if not _unscored(ctx, state):
             break
         ctx.progress.say(f"round {number}: scoring {_remaining(ctx, state)}")
+        # The base fit checked through `identify`; each round compiles refits.
         release_if_near_map_limit("diagnose")
         state, scores, natural, column = _score_round(ctx, state)
         if any(c.significant for c in scores):
@@ -1503,7 +1504,6 @@ def _diagnose(
     progress: bool,
 ) -> Diagnosis:
     start_time = time.perf_counter()
-    release_if_near_map_limit("diagnose")
     recording = records.joined
     masks = [family.holdout(each, holdout_fraction) for each in records.recordings]
     for each, mask in zip(records.recordings, masks):
