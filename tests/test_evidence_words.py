@@ -348,15 +348,15 @@ def test_degradation_names_what_the_fitted_values_show():
     assert f"strength is down {strength:.0%}" in text
     # A rate at its floor reads as no change (not "up -0%").
     assert "its stiffness unchanged" in text and "-0%" not in text
-    # The peak-driven rates count from the yield displacement zu (1 here) to the
-    # record's largest displacement (10).
+    # The peak-driven rates count from zero (not from the yield displacement, 1
+    # here) to the record's largest displacement (10).
     peak = eqx.tree_at(
         lambda m: m.displacement_scale,
         none.replace(peak_strength_degradation=0.05),
         jnp.asarray(10.0),
     )
     assert float(peak.saturation()) == pytest.approx(1.0)
-    assert f"strength is down {1 - 1.45 ** (-1 / 1.5):.0%}" in (
+    assert f"strength is down {1 - 1.5 ** (-1 / 1.5):.0%}" in (
         jh.Degradation().evidence(where, peak)
     )
     both = STRUCTURAL_MODEL.replace(stiffness_degradation=0.05)

@@ -43,7 +43,7 @@ _STRUCTURAL: dict[str, Any] = {
     "force_scale": 2.5,
     "time_center": 1.5,
     "time_scale": 1.5,
-    "peak_from_yield": False,
+    "slip_from_yield": False,
     "smoothing": jh.AlgebraicSign(1e-3),
 }
 
@@ -255,18 +255,25 @@ def test_other_format_version_names_both(tmp_path):
         jh.load_model(file, verify=False)
 
 
-def test_a_structural_file_without_the_peak_origin_is_refused_by_name(tmp_path):
-    # Files written before the peak drivers read the excursion past yield lack
-    # `peak_from_yield`: read with today's default, their peak rates would mean
-    # something else, so they are refused, naming the field.
+def test_structural_files_of_another_peak_origin_are_refused_by_name(tmp_path):
+    # Files written before the slip alone read the excursion past yield lack
+    # `slip_from_yield` (the latest of them carry `peak_from_yield`, for which
+    # their peak-driven degradation counted from yield too): read with today's
+    # meaning, their peak rates would mean something else, so they are refused,
+    # naming the fields.
     file = jh.save_model(jh.StructuralBoucWen(**_STRUCTURAL), tmp_path / "m.json")
 
     def older(data):
-        del data["model"]["fields"]["peak_from_yield"]
+        fields = data["model"]["fields"]
+        fields["peak_from_yield"] = fields.pop("slip_from_yield")
         data["checksum"] = checksum(data)
 
     _edit(file, older)
-    with pytest.raises(ValueError, match=r"missing field\(s\) \['peak_from_yield'\]"):
+    with pytest.raises(
+        ValueError,
+        match=r"missing field\(s\) \['slip_from_yield'\].*unknown field\(s\) "
+        r"\['peak_from_yield'\]",
+    ):
         jh.load_model(file)
 
 

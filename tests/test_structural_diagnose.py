@@ -91,32 +91,36 @@ def test_peak_driven_degradation_reads_the_largest_displacement_so_far():
     )
 
 
-def test_the_peak_drivers_wait_for_the_test_to_yield():
-    # The peak-driven degradation and the series slip grow with the largest
-    # excursion past the yield displacement zu: while the test stays within zu the
-    # force is exactly the plain one, and once it passes zu they act.
+def test_the_slip_waits_for_yield_and_the_peak_degradation_does_not():
+    # The series slip grows with the largest excursion past the yield displacement
+    # zu: while the test stays within zu the force is exactly the plain one, and
+    # once it passes zu the slip acts. The peak-driven degradation reads the
+    # largest displacement from zero (RC members degrade from the cracking that
+    # precedes yield): it acts from the first cycle.
     x = _protocol(levels=(0.5, 1.0, 4.0), cycles=2)
     path = jh.Recording.quasi_static(x, x).input_path()
     plain = _truth(x)
     zu = float(plain.saturation())
     assert 1.0 < zu < 4.0
-    model = plain.replace(
-        peak_strength_degradation=0.2,
-        peak_stiffness_degradation=0.1,
-        slip_length=0.3,
-        slip_window=0.1,
+    slip = plain.replace(slip_length=0.3, slip_window=0.1)
+    degrading = plain.replace(
+        peak_strength_degradation=0.2, peak_stiffness_degradation=0.1
     )
     solver = jh.RK4(substeps=4)
-    force = np.asarray(jh.simulate(model, path, solver))
     plain_force = np.asarray(jh.simulate(plain, path, solver))
+    slip_force = np.asarray(jh.simulate(slip, path, solver))
     within = np.maximum.accumulate(np.abs(x)) <= zu
     assert within[:320].all() and not within.all()
-    np.testing.assert_allclose(force[within], plain_force[within], rtol=0, atol=1e-12)
-    departure = np.max(np.abs(force - plain_force)[~within])
+    np.testing.assert_allclose(
+        slip_force[within], plain_force[within], rtol=0, atol=1e-12
+    )
+    departure = np.max(np.abs(slip_force - plain_force)[~within])
     assert departure > 0.05 * np.max(np.abs(plain_force))
-    np.testing.assert_allclose(model.excess(np.array([0.5, zu, 4.0])), [0, 0, 4 - zu])
-    # The earlier form, from zero, acts from the first cycle.
-    from_zero = dataclasses.replace(model, peak_from_yield=False)
+    np.testing.assert_allclose(slip.excess(np.array([0.5, zu, 4.0])), [0, 0, 4 - zu])
+    early = np.asarray(jh.simulate(degrading, path, solver))
+    assert np.max(np.abs(early - plain_force)[within]) > 0.01 * np.max(plain_force)
+    # The earlier slip, from zero, acts from the first cycle too.
+    from_zero = dataclasses.replace(slip, slip_from_yield=False)
     early = np.asarray(jh.simulate(from_zero, path, solver))
     assert np.max(np.abs(early - plain_force)[within]) > 0.01 * np.max(plain_force)
 

@@ -8,10 +8,9 @@ uses, so a fitted model exports exactly where OpenSees has the material:
 - degradation (Baber-Wen, and its ductility-driven form): nu = 1 +
   strength_degradation*e + peak_strength_degradation*p, eta = 1 +
   stiffness_degradation*e + peak_stiffness_degradation*p, with e the dissipated
-  hysteretic energy and p = (max|x| - zu)+ the largest excursion so far beyond the
-  yield displacement zu (the ductility excess, (mu - 1)*x_y: RC members lose
-  stiffness and strength with the largest excursion past yield as well as with the
-  energy, and not before they yield; Park-Ang's damage index combines the two);
+  hysteretic energy and p = max|x| the largest displacement so far (RC members lose
+  stiffness and strength with the largest excursion as well as with the energy,
+  from the cracking that precedes yield; Park-Ang's damage index combines the two);
   zdot = Phi/eta * xdot where
   Phi = A - nu*(beta*sign(xdot*z) + gamma)*|z|^n (OpenSees `BoucWen`'s deltaNu,
   deltaEta; it has no peak-driven terms);
@@ -24,9 +23,10 @@ uses, so a fitted model exports exactly where OpenSees has the material:
   in series with the element, whose compliance is a Gaussian in the force F_e the
   element carries, ds = a/(sqrt(2 pi)*sigma)*exp(-(F_e/sigma)^2/2)*dF_e, so that
   s = a*(Phi(F_e/sigma) - 1/2) crosses from -a/2 to a/2 as the force crosses zero,
-  a = slip_length*p (p = (max|x| - zu)+ as above: the slip opens once the test
-  passes yield, as bolt holes ovalise and cracks stay open; where p grows, s grows
-  with it on the side the force is, per sample), over a force window
+  a = slip_length*(max|x| - zu)+ (the excursion past the yield displacement zu:
+  the slip opens once the test passes yield, as bolt holes ovalise and cracks stay
+  open; where a grows, s grows with it on the side the force is, per sample), over
+  a force window
   sigma = slip_window*F_y,
   F_y = (1 - alpha)*k*zu; the element sees x - s and moves at xdot/(1 + c*K_t), c
   that compliance and K_t the element's tangent stiffness (no OpenSees material has
@@ -45,9 +45,9 @@ model exports to BWBN inexactly.
 The energy e is made dimensionless by `energy_scale` (max|F| * max|x| of the record,
 set by `around`): a degradation rate of 0.1 then loses 10 % per unit of that energy,
 about a quarter of one elastic-perfectly-plastic cycle at the peak amplitude.
-The excess p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
-the test has gone 10 mm past zu; `peak_from_yield=False` reads max|x| from zero
-instead, the form of earlier builds); the largest |x| is kept exactly, per sample
+The peak p is in the input's unit (a peak rate of 0.01 per mm raises nu by 0.1 once
+the test has reached 10 mm; `slip_from_yield=False` grows the slip with max|x| from
+zero too, the form of earlier builds); the largest |x| is kept exactly, per sample
 (`sample_update`), so the
 model runs under `RK4` with one step per sample (substeps allowed) unless both peak
 rates and the slip length are held at zero: `model.held_at_zero(
@@ -117,10 +117,11 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     force_scale: Float[Array, ""] = _normaliser(1e30)
     time_center: Float[Array, ""] = _normaliser(0.0)
     time_scale: Float[Array, ""] = _normaliser(1.0)
-    # Whether the peak drivers read the excursion past yield, (max|x| - zu)+ (True),
-    # or max|x| from zero (False: the form of earlier builds; their model files lack
-    # this field and are refused by name rather than read with another meaning).
-    peak_from_yield: bool = eqx.field(default=True, static=True, kw_only=True)
+    # Whether the series slip grows with the excursion past yield, (max|x| - zu)+
+    # (True), or with max|x| from zero (False: the form of earlier builds; their
+    # model files lack this field and are refused by name rather than read with
+    # another meaning).
+    slip_from_yield: bool = eqx.field(default=True, static=True, kw_only=True)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
     # Gains held at zero (`held_at_zero`): with pinch held no pinching (two
     # exponentials and a power per stage) is computed; with it and both energy
@@ -207,7 +208,7 @@ class StructuralBoucWen(AbstractGainHoldingModel):
             force_scale=jnp.maximum(output_scale, 1e-30),
             time_center=(inputs.t0 + inputs.t1) / 2,
             time_scale=(inputs.t1 - inputs.t0) / 2,
-            peak_from_yield=base.peak_from_yield,
+            slip_from_yield=base.slip_from_yield,
             smoothing=base.smoothing,
         )
 
@@ -229,10 +230,10 @@ class StructuralBoucWen(AbstractGainHoldingModel):
 
     def excess(self, peak: Float[ArrayLike, ""]) -> Float[Array, ""]:
         """(peak - zu)+: how far the largest |x| so far has gone past the yield
-        displacement zu (`saturation`), what the peak-driven degradation and the
-        series slip's length grow with (zero until the test yields). With
-        `peak_from_yield=False`, the peak itself."""
-        origin = self.saturation() if self.peak_from_yield else 0.0
+        displacement zu (`saturation`), what the series slip's length grows with
+        (zero until the test yields). With `slip_from_yield=False`, the peak
+        itself."""
+        origin = self.saturation() if self.slip_from_yield else 0.0
         return jnp.maximum(jnp.asarray(peak) - origin, 0.0)
 
     def reach(self) -> Float[Array, ""]:
@@ -340,12 +341,11 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         return (one if nu is None else nu, one if eta is None else eta)
 
     def _degradation(self, energy_rate: str, peak_rate: str, energy, peak):
-        """nu or eta: 1 + energy_rate*e + peak_rate*excess(peak) (floored at 0.01),
-        or None where both gains are held (the factor is exactly 1)."""
+        """nu or eta: 1 + energy_rate*e + peak_rate*peak (floored at 0.01), or None
+        where both gains are held (the factor is exactly 1)."""
         if self._holds(energy_rate, peak_rate):
             return None
-        excess = self.excess(peak)
-        factor = 1 + self._gain(energy_rate) * energy + self._gain(peak_rate) * excess
+        factor = 1 + self._gain(energy_rate) * energy + self._gain(peak_rate) * peak
         return jnp.maximum(factor, 1e-2)
 
     def initial_state(self, drive):

@@ -38,13 +38,12 @@ def _change(loss: float) -> str:
 
 class Degradation(AbstractEffect):
     """`StructuralBoucWen`'s Baber-Wen degradation, driven by the dissipated
-    energy e and by the largest excursion so far past the yield displacement,
-    p = (max|x| - zu)+: strength through nu = 1 + strength_degradation*e +
-    peak_strength_degradation*p, stiffness through eta = 1 + stiffness_degradation*e
-    + peak_stiffness_degradation*p. Real members degrade with both (Park-Ang's
-    damage index), and with the excursion only once they have yielded; a test whose
-    amplitudes only grow cannot tell the two drivers apart, an earthquake-like
-    history can."""
+    energy e and by the largest displacement so far, p = max|x|: strength through
+    nu = 1 + strength_degradation*e + peak_strength_degradation*p, stiffness through
+    eta = 1 + stiffness_degradation*e + peak_stiffness_degradation*p. Real members
+    degrade with both (Park-Ang's damage index), RC members from the cracking that
+    precedes yield; a test whose amplitudes only grow cannot tell the two drivers
+    apart, an earthquake-like history can."""
 
     name: ClassVar[str] = "degradation"
     parameters: ClassVar[tuple[str, ...]] = (
@@ -159,6 +158,6 @@ class Degradation(AbstractEffect):
             "elastic-perfectly-plastic cycle at the peak amplitude), and by "
             f"{q('peak_strength_degradation')} and "
             f"{q('peak_stiffness_degradation')} per unit of the largest "
-            "displacement reached so far beyond the yield displacement zu: the "
+            "displacement reached so far: the "
             "hysteretic force's ceiling falls as nu^(-1/n) and its tangent as 1/eta"
         )
