@@ -13,11 +13,10 @@ import pytest
 
 import jaxhyst as jh
 import jaxhyst._diagnose._diagnose as engine
-from jaxhyst._diagnose._results import Score, Validation
 
 
-def _validation(before: float, after: float, *, accepted: bool = False) -> Validation:
-    return Validation(
+def _validation(before: float, after: float, *, accepted: bool = False):
+    return jh.Validation(
         heldout_rmse_before=before,
         heldout_rmse_after=after,
         fit_rmse_before=1.0,
@@ -33,15 +32,15 @@ def _validation(before: float, after: float, *, accepted: bool = False) -> Valid
     )
 
 
-def _trial(effect: str, after: float, *, before: float = 1.0, dependents=()):
-    score = Score(
+def _trial(effect: str, after: float, *, dependents=()):
+    score = jh.Score(
         effect, 1.0, 1, -1.0, 0.0, True, {f"{effect}_gain": 1.0}, np.zeros((1, 1))
     )
     return engine._Trial(
         score,
         jh.BoucWen(1.0, 0.1, 1.0, 1.0, 0.5, 0.5, 2.0),
         np.zeros(1),
-        _validation(before, after),
+        _validation(1.0, after),
         dependents=dependents,
     )
 
