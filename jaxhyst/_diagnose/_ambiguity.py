@@ -107,9 +107,12 @@ def confined(
     return messages
 
 
-def cannot_tell_rivals(kept: str, rivals: list[Rival], kept_rmse: float) -> Ambiguity:
+def cannot_tell_rivals(
+    kept: str, rivals: list[Rival], kept_rmse: float, *, kept_because: str
+) -> Ambiguity:
     """The record cannot tell `kept` from `rivals` (each refitted in its place,
-    within the held-out comparison's resolution)."""
+    within the held-out comparison's resolution); `kept_because` says why the fit
+    keeps `kept`."""
     figures = "; ".join(
         f"{r.effect} {r.heldout_rmse:.3g} ({_margin_words(r.margin_sigma)})"
         for r in rivals
@@ -119,7 +122,7 @@ def cannot_tell_rivals(kept: str, rivals: list[Rival], kept_rmse: float) -> Ambi
         f"cannot tell {kept} from {names} on this recording: refitted in its place, "
         f"none lost by more than the {RESOLVED_SIGMA:.0f} standard errors this "
         f"comparison needs (held-out RMSE {kept} {kept_rmse:.3g}; {figures}). {kept} "
-        "is kept for the fit (it was adopted first), but the "
+        f"is kept for the fit ({kept_because}), but the "
         "record does not show that it is the explanation; see the advice for a test "
         "that would.",
         (kept, *(r.effect for r in rivals)),

@@ -1091,9 +1091,16 @@ def _rivals(ctx: _Context, state: _State) -> _State:
     with the other findings kept, compared on the held-out samples in standard
     errors of the difference. A rival better beyond the resolution replaces the
     finding (greedy choices made while a later effect was unmodelled can be
-    wrong); rivals within it leave the finding undecided, said as an ambiguity."""
+    wrong); rivals within it leave the finding undecided, said as an ambiguity.
+    Among effects the record cannot tell apart, the fit keeps the one with the
+    lowest held-out error: a validated rival better within the resolution also
+    replaces the finding (undecided), since the order of adoption says nothing
+    about which explanation the complete model prefers. An effect so replaced is
+    not brought back by a rival within the resolution."""
     family = ctx.family
     position, replacements = 0, 0
+    # Effects a rival replaced within the resolution: not swapped back in.
+    left_behind: set[str] = set()
     while position < len(state.findings):
         finding = state.findings[position]
         adopted_effect = family.effect(finding.effect)
@@ -1105,7 +1112,7 @@ def _rivals(ctx: _Context, state: _State) -> _State:
                 f"testing {finding.effect} against its rivals: {', '.join(others)}"
             )
         rivals: list[tuple[Rival, AbstractHysteresisModel]] = []
-        replaced = None
+        replaced, closer = None, None
         for name in others:
             alternative = family.effect(name)
             names = tuple(
@@ -1133,17 +1140,35 @@ def _rivals(ctx: _Context, state: _State) -> _State:
             )
             margin = (rival_mse - kept_mse) / se if se > 0 else 0.0
             if (
-                margin < -RESOLVED_SIGMA
+                margin < 0
                 and trial is not None
                 and where_then is not None
                 and replacements < len(family.catalogue)
             ):
-                replaced = (trial, where_then, alternative, swapped, swapped_pred)
-                replaced += (names, kept_mse, rival_mse)
-                break
+                swap = _Swap(
+                    trial,
+                    where_then,
+                    alternative,
+                    swapped,
+                    swapped_pred,
+                    names,
+                    kept_mse,
+                    rival_mse,
+                    resolved=margin < -RESOLVED_SIGMA,
+                )
+                if swap.resolved:
+                    replaced = swap
+                    break
+                if name not in left_behind and (
+                    closer is None or rival_mse < closer.rival_mse
+                ):
+                    closer = swap
             rivals.append((Rival(name, math.sqrt(rival_mse), margin), swapped))
+        if replaced is None and closer is not None:
+            replaced = closer
+            left_behind.add(finding.effect)
         if replaced is not None:
-            state = _replace_finding(ctx, state, position, *replaced)
+            state = _replace_finding(ctx, state, position, replaced)
             replacements += 1
             continue  # test the replacement against its own rivals
         close = [(r, m) for r, m in rivals if not r.resolved]
@@ -1159,7 +1184,10 @@ def _rivals(ctx: _Context, state: _State) -> _State:
                 ambiguities=state.ambiguities
                 + (
                     cannot_tell_rivals(
-                        finding.effect, [r for r, _ in close], kept_rmse
+                        finding.effect,
+                        [r for r, _ in close],
+                        kept_rmse,
+                        kept_because=_kept_because(finding, close, left_behind),
                     ),
                 ),
                 contrasts=state.contrasts
@@ -1172,29 +1200,61 @@ def _rivals(ctx: _Context, state: _State) -> _State:
     return state
 
 
+class _Swap(eqx.Module):
+    """A validated rival that fits the held-out data better than a finding: its
+    trial, where the mismatch was then, the rival refitted in the finding's place
+    (`swapped`, with its output) and the free parameters of that refit; the two
+    held-out MSEs; whether the difference is beyond the resolution."""
+
+    trial: _Trial
+    where_then: dict[str, Any]
+    alternative: AbstractEffect
+    swapped: AbstractHysteresisModel
+    swapped_pred: np.ndarray
+    names: tuple[str, ...]
+    kept_mse: float
+    rival_mse: float
+    resolved: bool
+
+
+def _kept_because(
+    finding: Finding, close: list[tuple[Rival, Any]], left_behind: set[str]
+) -> str:
+    """Why `finding` stays in the fit although `close` rivals are within the
+    resolution."""
+    better = [r.effect for r, _ in close if r.margin_sigma < 0]
+    if not better:
+        return "its held-out error is the lowest of them"
+    back = [name for name in better if name in left_behind]
+    if back:
+        return f"it replaced {', '.join(back)} first"
+    return "it was adopted first; the better rival was never validated alone"
+
+
 def _replace_finding(
-    ctx: _Context,
-    state: _State,
-    position: int,
-    trial: _Trial,
-    where_then: dict[str, Any],
-    alternative: AbstractEffect,
-    swapped: AbstractHysteresisModel,
-    swapped_pred: np.ndarray,
-    names: tuple[str, ...],
-    kept_mse: float,
-    rival_mse: float,
+    ctx: _Context, state: _State, position: int, swap: _Swap
 ) -> _State:
-    """`state` with the finding at `position` replaced by `alternative` (refitted
-    in its place as `swapped`), converged."""
+    """`state` with the finding at `position` replaced by `swap.alternative`
+    (refitted in its place as `swap.swapped`), converged."""
     finding = state.findings[position]
+    alternative, swapped, swapped_pred = (
+        swap.alternative,
+        swap.swapped,
+        swap.swapped_pred,
+    )
+    trial, where_then, names = swap.trial, swap.where_then, swap.names
     later = [f.effect for f in state.findings if f is not finding]
+    how = (
+        "beyond the resolution)."
+        if swap.resolved
+        else "within the resolution: the record cannot tell them apart, and the fit "
+        "keeps the one with the lower held-out error)."
+    )
     message = (
         f"{finding.effect} was adopted first, then replaced by {alternative.name}: "
         + (f"with {', '.join(later)} modelled, " if later else "")
         + f"{alternative.name} explains the held-out data better (RMSE "
-        f"{math.sqrt(rival_mse):.3g} vs {math.sqrt(kept_mse):.3g}, beyond the "
-        "resolution)."
+        f"{math.sqrt(swap.rival_mse):.3g} vs {math.sqrt(swap.kept_mse):.3g}, " + how
     )
     ctx.progress.say(f"{finding.effect} replaced by {alternative.name}")
     replacement = Finding(

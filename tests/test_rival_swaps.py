@@ -1,0 +1,182 @@
+"""The rival stage (`_rivals`): every finding is refitted against the other effects
+that passed validation; a rival better beyond the resolution replaces it, and among
+effects the record cannot tell apart the fit keeps the one with the lowest held-out
+error.
+
+The refits and the held-out comparison are replaced by stand-ins with set held-out
+errors, so these tests pin the stage's decisions without fitting anything."""
+
+import dataclasses
+import types
+
+import jax
+import numpy as np
+import pytest
+
+import jaxhyst as jh
+import jaxhyst._diagnose._diagnose as engine
+
+
+FAMILY = jh.StructuralFamily()
+MODEL = jh.StructuralBoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 1.5)
+TAGS = FAMILY.effect_names
+
+
+def _validation():
+    return jh.Validation(
+        heldout_rmse_before=1.0,
+        heldout_rmse_after=0.5,
+        fit_rmse_before=1.0,
+        fit_rmse_after=0.5,
+        heldout_margin_mse=0.0,
+        heldout_resolution_mse=0.0,
+        effective_samples_heldout=10.0,
+        bic_change=-1.0,
+        score_statistic=1.0,
+        score_dof=1,
+        log10_p=-5.0,
+        accepted=True,
+    )
+
+
+def _finding(effect: str) -> jh.Finding:
+    return jh.Finding(effect, "", "", 1.0, {}, {}, {}, _validation())
+
+
+def _output(effect: str) -> np.ndarray:
+    """A stand-in model output that says which effect it came from."""
+    return np.full(4, float(TAGS.index(effect)))
+
+
+def _effect_of(output: np.ndarray) -> str:
+    return TAGS[int(output[0])]
+
+
+@pytest.fixture
+def stage(monkeypatch):
+    """(run, swaps): `run(adopted, heldout_mse, *, untried=(), se=1.0)` runs the stage
+    with `adopted` as the one finding, every other effect of `heldout_mse` (but
+    `untried`) a validated rival, and the stand-ins answering with these held-out
+    MSEs; `swaps` records each replacement as (replaced, by, resolved)."""
+    swaps: list[tuple[str, str, bool]] = []
+
+    def refit(ctx, state, start, names, **_):
+        added = [n for n in names if n not in state.free]
+        (effect,) = {
+            e.name for e in FAMILY.catalogue if set(added) <= set(e.parameters)
+        }
+        return types.SimpleNamespace(effect=effect)
+
+    def predict(ctx, model):
+        return _output(model.effect)
+
+    def replace_finding(ctx, state, position, swap):
+        swaps.append(
+            (state.findings[position].effect, swap.alternative.name, swap.resolved)
+        )
+        findings = list(state.findings)
+        findings[position] = _finding(swap.alternative.name)
+        return dataclasses.replace(
+            state,
+            findings=tuple(findings),
+            predicted=_output(swap.alternative.name),
+            free=tuple(FAMILY.effect(swap.alternative.name).parameters),
+        )
+
+    def run(adopted, heldout_mse, *, untried=(), se=1.0, comparison=None):
+        def by_effect(ctx, state, kept, other):
+            return heldout_mse[_effect_of(kept)], heldout_mse[_effect_of(other)], se
+
+        monkeypatch.setattr(engine, "_heldout_comparison", comparison or by_effect)
+        trial = engine._Trial(
+            jh.Score("x", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
+            MODEL,
+            np.zeros(4),
+            _validation(),
+        )
+        others = [n for n in heldout_mse if n != adopted]
+        state = engine._State(
+            current=MODEL,
+            predicted=_output(adopted),
+            free=FAMILY.effect(adopted).parameters,
+            findings=(_finding(adopted),),
+            passed_trials={
+                n: (trial, {}) for n in [adopted, *others] if n not in untried
+            },
+            untried={n: trial.score for n in untried},
+        )
+        ctx = types.SimpleNamespace(
+            family=FAMILY,
+            progress=types.SimpleNamespace(say=lambda message: None),
+            key=jax.random.key(0),
+            sample_rate=1.0,
+            duration=1.0,
+            y=np.full(4, 100.0),
+            hold_mask=np.ones(4, bool),
+        )
+        return engine._rivals(ctx, state)  # pyright: ignore[reportArgumentType]
+
+    monkeypatch.setattr(engine, "_refit", refit)
+    monkeypatch.setattr(engine, "_predict", predict)
+    monkeypatch.setattr(engine, "_replace_finding", replace_finding)
+    monkeypatch.setattr(
+        engine, "_best_start", lambda ctx, effect, without, step, scales: (MODEL, None)
+    )
+    return run, swaps
+
+
+def test_a_rival_better_beyond_the_resolution_replaces_the_finding(stage):
+    run, swaps = stage
+    state = run("drift", {"drift": 20.0, "asymmetry": 10.0, "pinching": 30.0})
+    assert swaps == [("drift", "asymmetry", True)]
+    assert state.adopted == ("asymmetry",)
+    assert state.findings[0].decided  # drift and pinching lost by 10 and 20
+
+
+def test_among_rivals_the_record_cannot_tell_apart_the_lower_held_out_error_stays(
+    stage,
+):
+    run, swaps = stage
+    # asymmetry better by 1.5 standard errors, pinching worse by 1: both within.
+    state = run("drift", {"drift": 17.0, "asymmetry": 14.0, "pinching": 19.0}, se=2.0)
+    assert swaps == [("drift", "asymmetry", False)]
+    assert state.adopted == ("asymmetry",)
+    finding = state.findings[0]
+    assert not finding.decided
+    assert {r.effect for r in finding.rivals} == {"drift", "pinching"}
+    (said,) = [a for a in state.ambiguities if "cannot tell asymmetry" in a.statement]
+    assert "held-out error is the lowest" in said.statement
+    assert set(said.undecided) == {"asymmetry", "drift", "pinching"}
+
+
+def test_the_best_of_several_close_rivals_takes_the_place(stage):
+    run, swaps = stage
+    run("drift", {"drift": 17.0, "pinching": 16.0, "asymmetry": 15.0}, se=2.0)
+    assert swaps == [("drift", "asymmetry", False)]
+
+
+def test_a_close_rival_never_validated_alone_does_not_replace_the_finding(stage):
+    run, swaps = stage
+    state = run(
+        "drift", {"drift": 17.0, "asymmetry": 14.0}, untried=("asymmetry",), se=2.0
+    )
+    assert swaps == []
+    assert state.adopted == ("drift",)
+    (said,) = [a for a in state.ambiguities if "cannot tell drift" in a.statement]
+    assert "adopted first" in said.statement
+
+
+def test_an_effect_replaced_within_the_resolution_does_not_come_back(stage):
+    run, swaps = stage
+
+    # Each effect, refitted in the other's place, looks better by one standard
+    # error (refits that end at different points): one swap, no ping-pong.
+    def rival_always_better(ctx, state, kept, other):
+        return 10.0, 9.0, 1.0
+
+    state = run(
+        "drift", {"drift": 0.0, "asymmetry": 0.0}, comparison=rival_always_better
+    )
+    assert swaps == [("drift", "asymmetry", False)]
+    (said,) = [a for a in state.ambiguities if "cannot tell asymmetry" in a.statement]
+    assert "it replaced drift first" in said.statement
