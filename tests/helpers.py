@@ -1,4 +1,5 @@
-"""Shared test fixtures: the paper's input on a uniform grid, and typical parameters."""
+"""Shared test fixtures: the paper's input on a uniform grid, typical parameters, and
+records for tests that stand in the diagnosis's refits."""
 
 import numpy as np
 
@@ -24,3 +25,25 @@ def piezo_model(**overrides) -> jh.PiezoBoucWen:
     values = dict(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
     values.update(overrides)
     return jh.PiezoBoucWen(**values)
+
+
+def validation(
+    heldout_before: float = 1.0, heldout_after: float = 0.5, *, accepted: bool = True
+) -> jh.Validation:
+    """A held-out validation record for stage tests that stand in the refits: the
+    held-out RMSE before and after, whether the effect was accepted; the rest
+    neutral."""
+    return jh.Validation(
+        heldout_rmse_before=heldout_before,
+        heldout_rmse_after=heldout_after,
+        fit_rmse_before=1.0,
+        fit_rmse_after=1.0,
+        heldout_margin_mse=0.0,
+        heldout_resolution_mse=0.0,
+        effective_samples_heldout=10.0,
+        bic_change=0.0,
+        score_statistic=1.0,
+        score_dof=1,
+        log10_p=-1.0,
+        accepted=accepted,
+    )

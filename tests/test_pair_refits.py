@@ -10,26 +10,14 @@ import types
 import jax
 import numpy as np
 import pytest
+from helpers import validation
 
 import jaxhyst as jh
 import jaxhyst._diagnose._diagnose as engine
 
 
 def _validation(before: float, after: float, *, accepted: bool = False):
-    return jh.Validation(
-        heldout_rmse_before=before,
-        heldout_rmse_after=after,
-        fit_rmse_before=1.0,
-        fit_rmse_after=1.0,
-        heldout_margin_mse=0.0,
-        heldout_resolution_mse=0.0,
-        effective_samples_heldout=10.0,
-        bic_change=0.0,
-        score_statistic=1.0,
-        score_dof=1,
-        log10_p=-1.0,
-        accepted=accepted,
-    )
+    return validation(before, after, accepted=accepted)
 
 
 def _trial(effect: str, after: float, *, dependents=()):

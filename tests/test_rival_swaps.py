@@ -12,6 +12,7 @@ import types
 import jax
 import numpy as np
 import pytest
+from helpers import validation
 
 import jaxhyst as jh
 import jaxhyst._diagnose._diagnose as engine
@@ -22,25 +23,8 @@ MODEL = jh.StructuralBoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 1.5)
 TAGS = FAMILY.effect_names
 
 
-def _validation():
-    return jh.Validation(
-        heldout_rmse_before=1.0,
-        heldout_rmse_after=0.5,
-        fit_rmse_before=1.0,
-        fit_rmse_after=0.5,
-        heldout_margin_mse=0.0,
-        heldout_resolution_mse=0.0,
-        effective_samples_heldout=10.0,
-        bic_change=-1.0,
-        score_statistic=1.0,
-        score_dof=1,
-        log10_p=-5.0,
-        accepted=True,
-    )
-
-
 def _finding(effect: str) -> jh.Finding:
-    return jh.Finding(effect, "", "", 1.0, {}, {}, {}, _validation())
+    return jh.Finding(effect, "", "", 1.0, {}, {}, {}, validation())
 
 
 def _output(effect: str) -> np.ndarray:
@@ -92,7 +76,7 @@ def stage(monkeypatch):
             jh.Score("x", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
             MODEL,
             np.zeros(4),
-            _validation(),
+            validation(),
         )
         others = [n for n in heldout_mse if n != adopted]
         state = engine._State(
