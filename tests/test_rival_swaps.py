@@ -164,3 +164,59 @@ def test_an_effect_replaced_within_the_resolution_does_not_come_back(stage):
     assert swaps == [("drift", "asymmetry", False)]
     (said,) = [a for a in state.ambiguities if "cannot tell asymmetry" in a.statement]
     assert "it replaced drift first" in said.statement
+
+
+def test_a_replacement_supersedes_what_was_said_of_it_before(monkeypatch):
+    """Once asymmetry takes drift's place, "cannot tell whether asymmetry is
+    present" (asked with drift in the model) and the advice that would test it are
+    dropped; statements about other effects stay."""
+    monkeypatch.setattr(engine, "_refit", lambda ctx, state, model, names, **_: model)
+    monkeypatch.setattr(engine, "_predict", lambda ctx, model: np.zeros(4))
+    monkeypatch.setattr(engine, "_evidence", lambda *args: "")
+    ctx = types.SimpleNamespace(
+        family=types.SimpleNamespace(describe=lambda where: ""),
+        progress=types.SimpleNamespace(say=lambda message: None),
+        policy=jh.AdoptionPolicy(),
+        y=np.ones(4),
+        hold_mask=np.ones(4, bool),
+        fit_mask=np.ones(4, bool),
+    )
+    said = tuple(
+        engine.Ambiguity(f"cannot tell whether {name} is present", (name,))
+        for name in ("asymmetry", "pinching")
+    )
+    state = engine._State(
+        current=MODEL,
+        predicted=np.ones(4),
+        free=FAMILY.effect("drift").parameters,
+        findings=(_finding("drift"),),
+        ambiguities=said,
+        contrasts=tuple(
+            engine._Contrast((name,), MODEL, MODEL)
+            for name in ("asymmetry", "pinching")
+        ),
+    )
+    trial = engine._Trial(
+        jh.Score("asymmetry", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
+        MODEL,
+        np.zeros(4),
+        validation(),
+    )
+    swap = engine._Swap(
+        trial,
+        {},
+        FAMILY.effect("asymmetry"),
+        MODEL,
+        np.zeros(4),
+        FAMILY.effect("asymmetry").parameters,
+        1.0,
+        0.5,
+        resolved=False,
+    )
+    state = engine._replace_finding(ctx, state, 0, swap)  # pyright: ignore[reportArgumentType]
+    assert state.adopted == ("asymmetry",)
+    statements = [a.statement for a in state.ambiguities]
+    assert "cannot tell whether pinching is present" in statements
+    assert "cannot tell whether asymmetry is present" not in statements
+    assert "within the resolution" in statements[-1]
+    assert [c.separates for c in state.contrasts] == [("pinching",)]

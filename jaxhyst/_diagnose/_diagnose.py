@@ -1235,7 +1235,9 @@ def _replace_finding(
     ctx: _Context, state: _State, position: int, swap: _Swap
 ) -> _State:
     """`state` with the finding at `position` replaced by `swap.alternative`
-    (refitted in its place as `swap.swapped`), converged."""
+    (refitted in its place as `swap.swapped`), converged. Statements made before
+    on whether the alternative is present besides the replaced finding (and the
+    advice that would test them) are superseded, and dropped."""
     finding = state.findings[position]
     alternative, swapped, swapped_pred = (
         swap.alternative,
@@ -1269,6 +1271,7 @@ def _replace_finding(
     )
     findings = list(state.findings)
     findings[position] = replacement
+    superseded = (alternative.name,)
     state = _with_step(
         ctx,
         state,
@@ -1277,7 +1280,9 @@ def _replace_finding(
         predicted=swapped_pred,
         free=names,
         findings=tuple(findings),
-        ambiguities=state.ambiguities + (Ambiguity(message),),
+        ambiguities=tuple(a for a in state.ambiguities if a.undecided != superseded)
+        + (Ambiguity(message),),
+        contrasts=tuple(c for c in state.contrasts if c.separates != superseded),
     )
     current = _refit(ctx, state, swapped, names, max_steps=ctx.policy.converge_steps)
     predicted = _predict(ctx, current)
