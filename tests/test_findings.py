@@ -114,10 +114,15 @@ def test_a_finding_is_decided_only_when_every_rival_lost_beyond_the_resolution()
         "heldout_rmse": 0.51,
         "margin_sigma": 1.2,
     }
-    ambiguity = cannot_tell_rivals("creep", [close], 0.5)
+    ambiguity = cannot_tell_rivals(
+        "creep", [close], 0.5, kept_because="its held-out error is the lowest of them"
+    )
     assert ambiguity.undecided == ("creep", "rate_dependence")
     assert "cannot tell creep from rate_dependence" in ambiguity.statement
     assert "lost by 1.2 standard errors" in ambiguity.statement
+    assert "kept for the fit (its held-out error is the lowest of them)" in (
+        ambiguity.statement
+    )
 
 
 def dataclass_replace(obj, **changes):
