@@ -1,6 +1,8 @@
 """Shared test fixtures: the paper's input on a uniform grid, typical parameters, and
 records for tests that stand in the diagnosis's refits."""
 
+from typing import Any
+
 import numpy as np
 
 import jaxhyst as jh
@@ -21,8 +23,8 @@ def multisine_path(rate: float = 1000.0, duration: float = 4.0) -> jh.InputPath:
     return jh.InputPath.from_samples(t, u)
 
 
-def piezo_model(**overrides) -> jh.PiezoBoucWen:
-    values = dict(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
+def piezo_model(**overrides: Any) -> jh.PiezoBoucWen:
+    values: dict[str, Any] = dict(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
     values.update(overrides)
     return jh.PiezoBoucWen(**values)
 
