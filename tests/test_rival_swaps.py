@@ -147,7 +147,9 @@ def test_a_close_rival_never_validated_alone_does_not_replace_the_finding(stage)
     assert swaps == []
     assert state.adopted == ("drift",)
     (said,) = [a for a in state.ambiguities if "cannot tell drift" in a.statement]
-    assert "adopted first" in said.statement
+    assert "adopted first; the better rival was never validated alone" in (
+        said.statement
+    )
 
 
 def test_an_effect_replaced_within_the_resolution_does_not_come_back(stage):

@@ -1187,7 +1187,9 @@ def _rivals(ctx: _Context, state: _State) -> _State:
                         finding.effect,
                         [r for r, _ in close],
                         kept_rmse,
-                        kept_because=_kept_because(finding, close, left_behind),
+                        kept_because=_kept_because(
+                            close, left_behind, state.passed_trials
+                        ),
                     ),
                 ),
                 contrasts=state.contrasts
@@ -1218,17 +1220,19 @@ class _Swap(eqx.Module):
 
 
 def _kept_because(
-    finding: Finding, close: list[tuple[Rival, Any]], left_behind: set[str]
+    close: list[tuple[Rival, Any]], left_behind: set[str], validated: Collection[str]
 ) -> str:
-    """Why `finding` stays in the fit although `close` rivals are within the
-    resolution."""
+    """Why a finding stays in the fit although `close` rivals are within the
+    resolution (`validated`: the effects that passed held-out validation alone)."""
     better = [r.effect for r, _ in close if r.margin_sigma < 0]
     if not better:
         return "its held-out error is the lowest of them"
     back = [name for name in better if name in left_behind]
     if back:
         return f"it replaced {', '.join(back)} first"
-    return "it was adopted first; the better rival was never validated alone"
+    if any(name not in validated for name in better):
+        return "it was adopted first; the better rival was never validated alone"
+    return "it was adopted first"
 
 
 def _replace_finding(
