@@ -16,10 +16,6 @@ import jaxhyst as jh
 import jaxhyst._diagnose._diagnose as engine
 
 
-def _validation(before: float, after: float, *, accepted: bool = False):
-    return validation(before, after, accepted=accepted)
-
-
 def _trial(effect: str, after: float, *, dependents=()):
     score = jh.Score(
         effect, 1.0, 1, -1.0, 0.0, True, {f"{effect}_gain": 1.0}, np.zeros((1, 1))
@@ -28,7 +24,7 @@ def _trial(effect: str, after: float, *, dependents=()):
         score,
         jh.BoucWen(1.0, 0.1, 1.0, 1.0, 0.5, 0.5, 2.0),
         np.zeros(1),
-        _validation(1.0, after),
+        validation(1.0, after, accepted=False),
         dependents=dependents,
     )
 
@@ -45,9 +41,9 @@ def pair_refits(monkeypatch):
         lead, partner = (e.name for e in effects)
         calls.append((lead, partner, step))
         pair = _trial(lead, 0.5)
-        validation = _validation(1.0, 0.5, accepted=partner in passing)
+        checked = validation(1.0, 0.5, accepted=partner in passing)
         return engine._Trial(
-            pair.score, pair.model, pair.predicted, validation, dependents=(partner,)
+            pair.score, pair.model, pair.predicted, checked, dependents=(partner,)
         )
 
     monkeypatch.setattr(engine, "_refit_with", refit_with)

@@ -1248,7 +1248,6 @@ def _replace_finding(
         swap.swapped,
         swap.swapped_pred,
     )
-    trial, where_then, names = swap.trial, swap.where_then, swap.names
     later = [f.effect for f in state.findings if f is not finding]
     how = (
         "beyond the resolution)."
@@ -1265,13 +1264,13 @@ def _replace_finding(
     ctx.progress.say(f"{finding.effect} replaced by {alternative.name}")
     replacement = Finding(
         alternative.name,
-        _evidence(alternative, trial.validation, where_then, swapped),
-        ctx.family.describe(where_then),
-        float(trial.score.statistic),
+        _evidence(alternative, swap.trial.validation, swap.where_then, swapped),
+        ctx.family.describe(swap.where_then),
+        float(swap.trial.score.statistic),
         alternative.values(swapped),
         error_metrics(ctx.y, state.predicted),
         error_metrics(ctx.y, swapped_pred),
-        dataclasses.replace(trial.validation, replaced=finding.effect),
+        dataclasses.replace(swap.trial.validation, replaced=finding.effect),
     )
     findings = list(state.findings)
     findings[position] = replacement
@@ -1282,13 +1281,15 @@ def _replace_finding(
         f"{finding.effect} replaced by {alternative.name}",
         current=swapped,
         predicted=swapped_pred,
-        free=names,
+        free=swap.names,
         findings=tuple(findings),
         ambiguities=tuple(a for a in state.ambiguities if a.undecided != superseded)
         + (Ambiguity(message),),
         contrasts=tuple(c for c in state.contrasts if c.separates != superseded),
     )
-    current = _refit(ctx, state, swapped, names, max_steps=ctx.policy.converge_steps)
+    current = _refit(
+        ctx, state, swapped, swap.names, max_steps=ctx.policy.converge_steps
+    )
     predicted = _predict(ctx, current)
     if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
         ctx.y - swapped_pred, ctx.fit_mask
