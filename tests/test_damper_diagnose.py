@@ -56,16 +56,14 @@ SWITCHED_ON = dict(
     command_lag=0.005,
     field_lag=0.002,
     rolloff=0.1,
-    trend=20.0,
-    curvature=-10.0,
-    wander=5.0,
     skew=0.2,
     damping_skew=-0.1,
-    legendre4=4.0,
-    legendre5=-3.0,
-    legendre6=2.0,
-    legendre7=-1.5,
-    legendre8=1.0,
+    offset1=20.0,
+    offset2=-10.0,
+    offset9=5.0,
+    offset13=4.0,
+    offset20=-3.0,
+    offset26=1.0,
 )
 
 
@@ -112,24 +110,30 @@ def test_every_effect_off_is_the_fixed_field_damper():
         )
 
 
-def test_the_offset_s_terms_are_legendre_polynomials_of_degree_1_to_8():
-    # A zero that goes back and forth: each term adds its Legendre polynomial of
-    # the time scaled to [-1, 1] (curvature's is s^2 - 1/3 = 2/3 P2), and the eight
-    # are orthogonal over the record.
+def test_the_offset_is_a_uniform_cubic_b_spline_over_24_intervals():
+    # Each coefficient adds its B-spline of the time scaled to [-1, 1]: uniform
+    # knots every 1/12, the first of the 27 splines left out (f0 is the
+    # constant), checked against SciPy's B-splines.
+    from scipy.interpolate import BSpline
+
     path = _path()
     extended = jh.ExtendedDamper.around(_base(), path, 500.0)
     off = np.asarray(jh.simulate(extended, path, SOLVER))
     s = np.linspace(-1.0, 1.0, off.size)
-    names = ("trend", "curvature", "wander", *(f"legendre{k}" for k in range(4, 9)))
-    columns = []
-    for degree, name in enumerate(names, start=1):
+    names = tuple(f"offset{k}" for k in range(1, 27))
+    h = 2.0 / 24
+    knots = np.linspace(-1.0 - 3 * h, 1.0 + 3 * h, 24 + 7)
+    for position in (0, 1, 12, 24, 25):
+        name = names[position]
         on = np.asarray(jh.simulate(extended.replace(**{name: 2.0}), path, SOLVER))
-        legendre = np.polynomial.legendre.Legendre.basis(degree)(s)
-        legendre *= 2 / 3 if name == "curvature" else 1.0
-        np.testing.assert_allclose(on - off, 2.0 * legendre, rtol=0, atol=1e-9)
-        columns.append(legendre)
-    gram = np.corrcoef(np.stack(columns))
-    assert np.max(np.abs(gram - np.eye(len(names)))) < 0.05
+        coefficients = np.zeros(27)
+        coefficients[position + 1] = 1.0
+        spline = BSpline(knots, coefficients, 3)(s)
+        np.testing.assert_allclose(on - off, 2.0 * spline, rtol=0, atol=1e-9)
+    # With the constant (f0), the 26 span every cubic spline on those knots.
+    all_splines = BSpline(knots, np.eye(27), 3)(s)
+    ours = np.column_stack([np.ones_like(s), all_splines[:, 1:]])
+    assert np.linalg.matrix_rank(ours) == 27
     assert jh.DamperFamily().effect("offset").parameters == names
 
 

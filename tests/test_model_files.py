@@ -116,7 +116,8 @@ def _every_model() -> dict[str, jh.AbstractHysteresisModel]:
             field_knee=0.4,
             command_lag=0.01,
             rolloff=0.05,
-            trend=2.0,
+            offset3=2.0,
+            offset17=-1.5,
             skew=0.1,
             damping_skew=-0.05,
         ),
@@ -185,8 +186,8 @@ def test_round_trip_is_exact(name, tmp_path):
 def test_gains_held_by_a_refit_are_not_part_of_the_file(tmp_path):
     # `held_at_zero` is a way of computing: the file lists the model's fields only,
     # and the loaded model computes every term again.
-    model = _every_model()["ExtendedDamper"].replace(legendre4=0.0)
-    held = model.held_at_zero(["legendre4", "legendre5", "field_lag"])
+    model = _every_model()["ExtendedDamper"].replace(offset4=0.0)
+    held = model.held_at_zero(["offset4", "offset5", "field_lag"])
     file = jh.save_model(held, tmp_path / "held.json")
     assert "zero_gains" not in json.loads(file.read_text())["model"]["fields"]
     loaded = jh.load_model(file).model

@@ -9,7 +9,9 @@ import pytest
 
 import jaxhyst as jh
 from jaxhyst._diagnose._effects.base import RefitScales
+from jaxhyst._diagnose._families import holdout_blocks
 from jaxhyst._diagnose._refit import (
+    SMOOTHNESS,
     ActiveProblem,
     RefitSettings,
     additive_names,
@@ -32,8 +34,11 @@ def _structural():
     return jh.StructuralFamily(), model, model.replace(**on, k=12.0), x
 
 
+RATE = 3004.8
+
+
 def _damper():
-    rate = 3004.8
+    rate = RATE
     rng = np.random.default_rng(0)
     t = np.arange(1503) / rate
     x = np.sum(
@@ -191,6 +196,53 @@ def test_a_refit_of_additive_terms_alone_needs_no_search():
         rtol=1e-8,
         atol=1e-10,
     )
+
+
+def test_a_damper_offset_refit_is_the_penalised_spline_fit_and_bridges_held_out_blocks():
+    # The offset's spline coefficients are solved in closed form with their second
+    # differences penalised (`SMOOTHNESS`, relative to the mean squared column):
+    # the same fit NumPy finds, and on blocks the weights hold out it follows a
+    # wandering zero where an unpenalised fit of the same splines need not.
+    from scipy.interpolate import BSpline
+
+    family, model, _, path = _damper()
+    solver = jh.RK4(substeps=4)
+    predicted = np.asarray(jh.simulate(model, path, solver))
+    s = np.asarray((path.times - model.time_center) / model.time_scale)
+    wander = 40.0 * np.sin(2.2 * np.pi * s + 0.3) + 25.0 * np.cos(5.1 * np.pi * s)
+    force = predicted + wander
+    weights = holdout_blocks(s.size, 0.3)
+    names = family.effect("offset").parameters
+    scales = RefitScales(RATE, float(path.t1 - path.t0), {})
+    settings = RefitSettings(20, None, 1)
+    fitted = refit(
+        family,
+        model,
+        list(names),
+        path,
+        jnp.asarray(force),
+        jnp.asarray(weights, float),
+        solver,
+        scales,
+        settings,
+    )
+    h = 2.0 / 24
+    knots = np.linspace(-1.0 - 3 * h, 1.0 + 3 * h, 24 + 7)
+    columns = BSpline(knots, np.eye(27), 3)(s)[:, 1:]
+    kept = columns[weights]
+    second = np.diff(np.eye(len(names)), 2, axis=0)
+    weight = SMOOTHNESS * np.mean(np.sum(kept**2, axis=0))
+    expected = np.linalg.solve(
+        kept.T @ kept + weight * second.T @ second, kept.T @ wander[weights]
+    )
+    got = np.array([float(getattr(fitted, n)) for n in names])
+    np.testing.assert_allclose(
+        got, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max()
+    )
+    # Inside the record (the last block held out is extrapolated).
+    inside = ~weights & (s < 1.0 - 2.0 / 30)
+    error = columns @ got - wander
+    assert np.sqrt(np.mean(error[inside] ** 2)) < 0.05 * np.std(wander)
 
 
 @pytest.mark.parametrize("which", ["structural", "damper", "piezo"])

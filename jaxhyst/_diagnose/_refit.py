@@ -4,6 +4,8 @@ Levenberg-Marquardt polish through the padded active problem that lets fits over
 different free sets share one compilation, with the effects' additive terms solved
 in closed form (variable projection)."""
 
+import math
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -141,6 +143,11 @@ def refit(
         [space.names.index(n) for n in free if n not in solved],
         smallest=11 if problem.measured.shape[-1] < length else 8,
         additive_index=[space.names.index(n) for n in solved],
+        splines=[
+            [solved.index(n) for n in effect.smooth]
+            for effect in family.catalogue
+            if effect.smooth and set(effect.smooth) <= set(solved)
+        ],
     )
     z = active.start()
     if len(solved) < len(free):
@@ -180,6 +187,15 @@ def additive_names(
     return tuple(n for n in free if n in declared and n in linear)
 
 
+# How firmly a refit holds a spline's second differences (`AbstractEffect.smooth`)
+# at zero: the penalty's weight relative to the mean squared sensitivity of the
+# residuals to one coefficient. Small enough to leave any wander the knots can
+# follow (the fitted-sample error of the suite's load-cell wander changes by
+# under 0.05 sigma between 1e-3 and 1e-1), large enough that a coefficient the
+# held-out samples leave loose follows its neighbours instead of swinging.
+SMOOTHNESS = 1e-2
+
+
 class ActiveProblem(eqx.Module):
     """A `Problem` seen through its free coordinates only, padded to a few fixed
     sizes: the Jacobian then costs one tangent per free parameter (not per parameter
@@ -192,19 +208,25 @@ class ActiveProblem(eqx.Module):
     (variable projection, exact here because those directions depend on no
     parameter). `solved` then sets them to that least-squares value. A polish thus
     searches fewer coordinates (one tangent each per step) and never has to walk
-    the linear ones to their optimum."""
+    the linear ones to their optimum. Additive coordinates that are a spline's
+    coefficients (`splines`: positions in `additive`) also carry a penalty on their
+    second differences (`SMOOTHNESS`), as rows appended to the residuals: the
+    least squares then include it."""
 
     problem: Problem
     base: jax.Array
     index: jax.Array
     additive: jax.Array
-    # The residuals' change per unit of each additive coordinate (m, k), and an
-    # orthonormal basis of the span of those columns (m, r); None without any.
+    # The residuals' change per unit of each additive coordinate (m, k), with the
+    # penalty's rows below (m + q, k), and an orthonormal basis of the span of
+    # those columns (m + q, r); None without any.
     directions: jax.Array | None
     basis: jax.Array | None
+    # The penalty's rows at the start (q,): the spline's current second differences.
+    penalty: jax.Array | None
 
     @classmethod
-    def build(cls, problem, z0, free_index, smallest=8, additive_index=()):
+    def build(cls, problem, z0, free_index, smallest=8, additive_index=(), splines=()):
         # Few distinct sizes, so that fits over different free sets share one
         # compiled program (each costs seconds to compile; a padded coordinate costs
         # one tangent per Jacobian).
@@ -214,16 +236,21 @@ class ActiveProblem(eqx.Module):
         padding = [total] * (size - len(free_index))
         z0 = jnp.asarray(z0)
         additive = jnp.asarray(list(additive_index), dtype=int)
-        directions = basis = None
+        directions = basis = penalty = None
         if len(additive_index):
-            directions = _residual_directions(problem, z0, additive)
-            columns = np.asarray(directions)
+            columns = np.asarray(_residual_directions(problem, z0, additive))
+            rows, penalty = _spline_penalty(
+                problem.space, z0, additive, columns, splines
+            )
+            columns = np.concatenate([columns, rows])
+            directions = jnp.asarray(columns)
             left, singular, _ = np.linalg.svd(columns, full_matrices=False)
             # Columns that all samples leave at zero (a term the weights mask out
             # entirely) span nothing: drop them rather than project a random
             # direction out.
             keep = singular > 1e-10 * max(float(singular[0]), np.finfo(float).tiny)
             basis = jnp.asarray(left[:, keep])
+            penalty = jnp.asarray(penalty)
         return cls(
             problem,
             z0,
@@ -231,6 +258,7 @@ class ActiveProblem(eqx.Module):
             additive,
             directions,
             basis,
+            penalty,
         )
 
     def full(self, z):
@@ -241,10 +269,16 @@ class ActiveProblem(eqx.Module):
         extended = jnp.concatenate([self.base, jnp.zeros(1, self.base.dtype)])
         return extended[self.index]
 
+    def _with_penalty(self, residuals):
+        if self.penalty is None:
+            return residuals
+        return jnp.concatenate([residuals, self.penalty.astype(residuals.dtype)])
+
     def residuals(self, z):
         residuals = self.problem.residuals(self.full(z))
         if self.basis is None:
             return residuals
+        residuals = self._with_penalty(residuals)
         return residuals - self.basis @ (self.basis.T @ residuals)
 
     def rmse(self, z):
@@ -253,24 +287,54 @@ class ActiveProblem(eqx.Module):
             return self.problem.rmse(full)
         residuals = self.residuals(z)
         weights = self.problem.weights
-        weight = residuals.size if weights is None else jnp.sum(weights**2)
+        samples = self.problem.measured.size
+        weight = samples if weights is None else jnp.sum(weights**2)
         squared = jnp.sum(residuals**2)
         value = self.problem.output_scale * jnp.sqrt(squared / weight)
         return self.problem.admissible(full, value)
 
     def solved(self, z) -> jax.Array:
         """Every coordinate of the space: the free ones from `z`, the additive ones
-        at their least-squares values given those."""
+        at their (penalised) least-squares values given those."""
         full = self.full(z)
         if self.directions is None:
             return full
-        residuals = np.asarray(problem_residuals(self.problem, full))
+        residuals = np.asarray(
+            self._with_penalty(problem_residuals(self.problem, full))
+        )
         step, *_ = np.linalg.lstsq(np.asarray(self.directions), -residuals, rcond=None)
         return full.at[self.additive].add(jnp.asarray(step, full.dtype))
 
     @property
     def fitted_samples(self) -> int:
         return self.problem.fitted_samples
+
+
+def _spline_penalty(space, z0, additive, columns: np.ndarray, splines):
+    """The penalty rows on the additive coordinates (q, k) and their value at `z0`
+    (q,): for each spline (positions in `additive`), sqrt(w) times its
+    coefficients' second differences, in the parameters' own units (the
+    coordinates map to them linearly), w = `SMOOTHNESS` times the mean squared
+    residual sensitivity per unit of one coefficient."""
+    k = columns.shape[1]
+    additive = np.asarray(additive)
+    width = np.asarray(space.upper - space.lower)[additive]
+    values = np.asarray(space.to_values(z0))[additive]
+    rows, start = [], []
+    for positions in splines:
+        positions = np.asarray(positions)
+        if positions.size < 3:
+            continue
+        per_unit = columns[:, positions] / width[positions]
+        weight = math.sqrt(SMOOTHNESS * np.mean(np.sum(per_unit**2, axis=0)))
+        second = np.diff(np.eye(positions.size), 2, axis=0) * weight
+        block = np.zeros((second.shape[0], k))
+        block[:, positions] = second * width[positions]
+        rows.append(block)
+        start.append(second @ values[positions])
+    if not rows:
+        return np.zeros((0, k)), np.zeros(0)
+    return np.concatenate(rows), np.concatenate(start)
 
 
 @stored_jit

@@ -367,6 +367,29 @@ def legendre_drift(s, trend, curvature, *higher):
     return total
 
 
+def spline_drift(s, coefficients):
+    """A slow drift as a uniform cubic B-spline in the time s scaled to [-1, 1]:
+    k = len(coefficients) + 1 equal intervals carry k + 3 B-splines, of which the
+    first is left out (the constant they sum to belongs to the model's own offset,
+    so the rest span every such spline with it); `coefficients` are the others',
+    in time order. Zero when every coefficient is. Each coefficient moves the
+    drift only within four intervals of its knot: a refit follows a zero that
+    wanders at the scale of one interval without swinging elsewhere."""
+    coefficients = jnp.stack([jnp.asarray(c) for c in coefficients])
+    full = jnp.concatenate([jnp.zeros(1, coefficients.dtype), coefficients])
+    intervals = full.shape[0] - 3
+    position = (jnp.asarray(s) + 1.0) / 2.0 * intervals
+    index = jnp.clip(jnp.floor(position), 0, intervals - 1).astype(jnp.int32)
+    u = jnp.clip(position - index, 0.0, 1.0)
+    weights = (
+        (1 - u) ** 3 / 6,
+        (3 * u**3 - 6 * u**2 + 4) / 6,
+        (-3 * u**3 + 3 * u**2 + 3 * u + 1) / 6,
+        u**3 / 6,
+    )
+    return sum(w * full[index + k] for k, w in enumerate(weights))
+
+
 def read_input(
     path: InputPath,
     t: Float[ArrayLike, ""],

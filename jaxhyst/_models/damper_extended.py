@@ -30,10 +30,12 @@ normalisers set by `around` from the record, not fitted):
   transmits c1*ydot = (alpha*z + c0*xdot)/(1 + c0/c1) (rolloff = 0: rigid, y fixed);
   the force then rolls off at low velocity near reversals;
 - offset: the force's zero moves along the record (the accumulator's preload as the
-  gas warms, a load-cell zero drifting): F += trend*s + curvature*(s^2 - 1/3) +
-  wander*(5 s^3 - 3 s)/2 + legendre4*P4(s) + ... + legendre8*P8(s), s the time in
-  [-1, 1] (the Legendre polynomials of degree 1 to 8: a zero that wanders back and
-  forth up to four times over the record; the constant is the base's f0);
+  gas warms, a load-cell zero drifting): F += a uniform cubic B-spline in the time
+  s in [-1, 1] over 24 equal intervals (`spline_drift`), coefficients offset1 ...
+  offset26 (the first B-spline is left out: the constant is the base's f0). A
+  zero that wanders at the scale of a twenty-fourth of the record; refits hold its
+  second differences small (`DamperOffset.smoothness`), so the spline interpolates
+  smoothly where samples are held out;
 - asymmetry: compression and extension differ: gamma -> gamma +
   skew*(beta + gamma)*sign(z) (the hysteretic force saturates at different levels
   on the two sides) and c0 -> c0*(1 + damping_skew*sign(xdot)) (the valving damps
@@ -59,8 +61,8 @@ from .base import (
     as_parameter,
     held_gains_field,
     hysteretic_rate,
-    legendre_drift,
     read_input,
+    spline_drift,
 )
 from .damper import (
     BoucWenDamper,
@@ -80,17 +82,10 @@ def _normaliser(default: float):
     return eqx.field(converter=as_parameter, default=default, kw_only=True)
 
 
-# The offset's Legendre terms, degree 1 to 8 (the `offset` effect's parameters).
-OFFSET_TERMS = (
-    "trend",
-    "curvature",
-    "wander",
-    "legendre4",
-    "legendre5",
-    "legendre6",
-    "legendre7",
-    "legendre8",
-)
+# The offset's spline coefficients (the `offset` effect's parameters): 24 equal
+# intervals of the record carry 27 cubic B-splines; the first is left out.
+OFFSET_INTERVALS = 24
+OFFSET_TERMS = tuple(f"offset{k}" for k in range(1, OFFSET_INTERVALS + 3))
 
 
 class LaggedCommandDrive(DamperDrive):
@@ -123,16 +118,34 @@ class ExtendedDamper(AbstractGainHoldingModel):
     command_lag: Float[Array, ""] = _field(0.0)
     field_lag: Float[Array, ""] = _field(0.0)
     rolloff: Float[Array, ""] = _field(0.0)
-    trend: Float[Array, ""] = _field(0.0)
-    curvature: Float[Array, ""] = _field(0.0)
-    wander: Float[Array, ""] = _field(0.0)
     skew: Float[Array, ""] = _field(0.0)
     damping_skew: Float[Array, ""] = _field(0.0)
-    legendre4: Float[Array, ""] = _field(0.0)
-    legendre5: Float[Array, ""] = _field(0.0)
-    legendre6: Float[Array, ""] = _field(0.0)
-    legendre7: Float[Array, ""] = _field(0.0)
-    legendre8: Float[Array, ""] = _field(0.0)
+    offset1: Float[Array, ""] = _field(0.0)
+    offset2: Float[Array, ""] = _field(0.0)
+    offset3: Float[Array, ""] = _field(0.0)
+    offset4: Float[Array, ""] = _field(0.0)
+    offset5: Float[Array, ""] = _field(0.0)
+    offset6: Float[Array, ""] = _field(0.0)
+    offset7: Float[Array, ""] = _field(0.0)
+    offset8: Float[Array, ""] = _field(0.0)
+    offset9: Float[Array, ""] = _field(0.0)
+    offset10: Float[Array, ""] = _field(0.0)
+    offset11: Float[Array, ""] = _field(0.0)
+    offset12: Float[Array, ""] = _field(0.0)
+    offset13: Float[Array, ""] = _field(0.0)
+    offset14: Float[Array, ""] = _field(0.0)
+    offset15: Float[Array, ""] = _field(0.0)
+    offset16: Float[Array, ""] = _field(0.0)
+    offset17: Float[Array, ""] = _field(0.0)
+    offset18: Float[Array, ""] = _field(0.0)
+    offset19: Float[Array, ""] = _field(0.0)
+    offset20: Float[Array, ""] = _field(0.0)
+    offset21: Float[Array, ""] = _field(0.0)
+    offset22: Float[Array, ""] = _field(0.0)
+    offset23: Float[Array, ""] = _field(0.0)
+    offset24: Float[Array, ""] = _field(0.0)
+    offset25: Float[Array, ""] = _field(0.0)
+    offset26: Float[Array, ""] = _field(0.0)
     command_scale: Float[Array, ""] = _normaliser(1.0)
     damping_scale: Float[Array, ""] = _normaliser(1.0)
     time_center: Float[Array, ""] = _normaliser(0.0)
@@ -152,16 +165,9 @@ class ExtendedDamper(AbstractGainHoldingModel):
         "command_lag",
         "field_lag",
         "rolloff",
-        "trend",
-        "curvature",
-        "wander",
         "skew",
         "damping_skew",
-        "legendre4",
-        "legendre5",
-        "legendre6",
-        "legendre7",
-        "legendre8",
+        *OFFSET_TERMS,
     )
     state_size: ClassVar[int] = 3
     input_names: ClassVar[tuple[str, ...]] = ("displacement", "command")
@@ -369,7 +375,7 @@ class ExtendedDamper(AbstractGainHoldingModel):
             + self.k0 * (drive.u - self.x0)
             + hysteretic
             + self.f0
-            + legendre_drift(s, *(self._gain(name) for name in OFFSET_TERMS))
+            + spline_drift(s, tuple(self._gain(name) for name in OFFSET_TERMS))
         )
 
     def initial_state(self, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]

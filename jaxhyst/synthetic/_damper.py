@@ -5,7 +5,7 @@ hides damper-family effects under load-cell noise, and the truth behind it.
 The truth is a Bouc-Wen damper of fixed field (`BoucWenDamper`, N, cm, s, V) with the
 damper catalogue's effects written in forms that differ from the diagnosis's own
 (`ExtendedDamper`: affine or hyperbolic field, one or two real-pole lag stages,
-rigid-spring-free series dashpot, Legendre drift, gamma skew and sign-switched c0),
+rigid-spring-free series dashpot, spline drift, gamma skew and sign-switched c0),
 because real dampers never follow them:
 
 ================  =============================================================

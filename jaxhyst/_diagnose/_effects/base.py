@@ -55,6 +55,10 @@ class AbstractEffect(eqx.Module):
     # form instead of searching them (`ActiveProblem`). Declare only what the
     # model makes exactly so; a test checks it for every family.
     additive: ClassVar[tuple[str, ...]] = ()
+    # Additive parameters that are a spline's coefficients, in order: refits that
+    # solve them all hold their second differences small (`SMOOTHNESS`), so that
+    # the spline bridges held-out samples smoothly instead of swinging there.
+    smooth: ClassVar[tuple[str, ...]] = ()
 
     @property
     def gains(self) -> tuple[str, ...]:
