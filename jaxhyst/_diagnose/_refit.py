@@ -189,10 +189,12 @@ def additive_names(
 
 # How firmly a refit holds a spline's second differences (`AbstractEffect.smooth`)
 # at zero: the penalty's weight relative to the mean squared sensitivity of the
-# residuals to one coefficient. Small enough to leave any wander the knots can
-# follow (the fitted-sample error of the suite's load-cell wander changes by
-# under 0.05 sigma between 1e-3 and 1e-1), large enough that a coefficient the
-# held-out samples leave loose follows its neighbours instead of swinging.
+# residuals to one coefficient. Measured on the damper suite's six offset-only
+# records (the truth's offset plus the record's noise, fitted on the fitted
+# samples): without the penalty the offset spline misses the held-out blocks by
+# 2.3-22 noise sigmas (a coefficient they leave loose swings); at 1e-3, 1e-2 and
+# 1e-1 by 0.17-1.43, 0.21-0.98 and 0.28-0.97 sigma, with 0.06-0.33, 0.08-0.34 and
+# 0.15-0.49 sigma left on the fitted samples.
 SMOOTHNESS = 1e-2
 
 
