@@ -486,6 +486,14 @@ def _model(block: Any, owner: str) -> AbstractHysteresisModel:
     parameters, fields = block["parameters"], block["fields"]
     if not isinstance(parameters, dict) or not isinstance(fields, dict):
         raise ValueError(f"{owner}: parameters and fields must be objects.")
+    retired = [k for k in parameters if k in cls.retired_parameters]
+    if retired:
+        reasons = sorted({cls.retired_parameters[k] for k in retired})
+        raise ValueError(
+            f"{owner}: this {name} was written by an earlier jaxhyst: its "
+            f"parameter(s) {retired} are {'; '.join(reasons)}; refit the model "
+            "(jaxhyst diagnose or jh.identify) and save it again."
+        )
     _names_check(owner, "parameter(s)", parameters, cls.parameter_names)
     bad = [k for k, v in parameters.items() if not _is_number(v)]
     if bad:

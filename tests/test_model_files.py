@@ -331,6 +331,26 @@ def test_unknown_class_lists_the_known_ones(tmp_path):
         assert name in str(error.value)
 
 
+def test_a_damper_file_with_the_retired_legendre_offset_says_to_refit(tmp_path):
+    # Files written before the offset became a spline name its Legendre terms:
+    # loading one says what they were and what to do, not only that names differ.
+    file = jh.save_model(_every_model()["ExtendedDamper"], tmp_path / "m.json")
+
+    def edit(data):
+        parameters = data["model"]["parameters"]
+        for k in range(1, 27):
+            parameters.pop(f"offset{k}")
+        parameters.update(trend=1.0, curvature=0.0, wander=0.0, legendre4=0.0)
+
+    _edit(file, edit)
+    with pytest.raises(
+        ValueError,
+        match=r"earlier jaxhyst.*'trend'.*Legendre terms.*offset1 \.\.\. offset26"
+        r".*refit",
+    ):
+        jh.load_model(file, verify=False)
+
+
 def test_extended_fields_check_their_kind(tmp_path):
     model = _every_model()["ExtendedPiezo"]
     file = jh.save_model(model, tmp_path / "m.json")

@@ -174,6 +174,9 @@ class AbstractHysteresisModel(eqx.Module):
     # polish steps outside its box (`ParameterSpace.floor`), beyond the shared ones
     # (n >= 1, nu >= 1).
     parameter_floors: ClassVar[dict[str, float]] = {}
+    # Parameters an earlier jaxhyst had and this one has not (by name: what
+    # replaced them), so that loading an old model file says why it cannot.
+    retired_parameters: ClassVar[dict[str, str]] = {}
     # The inputs the model reads, in the order an `InputPath` carries them (`values`,
     # then each row of `channels`). Models of more than one input override it.
     input_names: ClassVar[tuple[str, ...]] = ("u",)

@@ -171,6 +171,16 @@ class ExtendedDamper(AbstractGainHoldingModel):
     )
     state_size: ClassVar[int] = 3
     input_names: ClassVar[tuple[str, ...]] = ("displacement", "command")
+    retired_parameters: ClassVar[dict[str, str]] = dict.fromkeys(
+        (
+            "trend",
+            "curvature",
+            "wander",
+            *(f"legendre{k}" for k in range(4, 9)),
+        ),
+        "the offset's Legendre terms in time, replaced by the cubic spline "
+        "offset1 ... offset26",
+    )
 
     @classmethod
     def around(
