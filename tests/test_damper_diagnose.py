@@ -7,6 +7,7 @@ line."""
 import dataclasses
 import functools
 import json
+import re
 
 import equinox as eqx
 import jax
@@ -108,6 +109,22 @@ def test_every_effect_off_is_the_fixed_field_damper():
             rtol=0,
             atol=1e-9,
         )
+
+
+def test_the_offset_reads_as_one_curve_with_its_certainty():
+    # 26 coefficients read as the zero's rise and wander (here a linear ramp of
+    # the coefficients: a nearly straight zero rising by about 2.5 N), with their
+    # standard errors, or that the record does not determine them.
+    effect = jh.DamperFamily().effect("offset")
+    values = {n: 0.1 * k for k, n in enumerate(effect.parameters, start=1)}
+    units = effect.units(time="s", input="cm", output="N")
+    text = effect.reading(values, dict.fromkeys(values, 0.02), units)
+    rise = float(re.search(r"moves by (\S+) N", text).group(1))
+    assert 2.3 < rise < 2.7
+    assert "standard errors up to 0.02 N" in text
+    for errors in ({}, {**dict.fromkeys(values, 0.02), "offset7": float("nan")}):
+        text = effect.reading(values, errors, units)
+        assert "not determined by this record" in text and "nan" not in text
 
 
 def test_the_offset_is_a_uniform_cubic_b_spline_over_24_intervals():

@@ -34,7 +34,7 @@ normalisers set by `around` from the record, not fitted):
   s in [-1, 1] over 24 equal intervals (`spline_drift`), coefficients offset1 ...
   offset26 (the first B-spline is left out: the constant is the base's f0). A
   zero that wanders at the scale of a twenty-fourth of the record; refits hold its
-  second differences small (`DamperOffset.smoothness`), so the spline interpolates
+  second differences small (the effect's `smooth`), so the spline interpolates
   smoothly where samples are held out;
 - asymmetry: compression and extension differ: gamma -> gamma +
   skew*(beta + gamma)*sign(z) (the hysteretic force saturates at different levels

@@ -1,5 +1,6 @@
 """Offset: the damper force's zero moves along the record."""
 
+import math
 from typing import ClassVar
 
 import jax.numpy as jnp
@@ -30,7 +31,10 @@ class DamperOffset(AbstractEffect):
     block as a smooth zero would (0.08-0.34 sigma left on the fitted samples,
     0.21-0.98 on the held-out blocks, same records), and the blocks judge it by
     interpolation. Under random motion (the white-noise tests this family reads)
-    functions of time this slow are nearly orthogonal to the mechanics."""
+    functions of time this slow are nearly orthogonal to the mechanics, except a
+    stiffness acting on the displacement's slow components: a base fit can take up
+    part of a wander that way (one suite record's base put a negative k0 there, and
+    the offset's 20-step candidate refit did not lead it out)."""
 
     name: ClassVar[str] = "offset"
     parameters: ClassVar[tuple[str, ...]] = OFFSET_TERMS
@@ -65,10 +69,18 @@ class DamperOffset(AbstractEffect):
         unit = "" if unit in ("", "1") else f" {unit}"
         rise = curve[-1] - curve[0]
         spread = curve - curve.mean()
+        spread_errors = [errors.get(n, math.nan) for n in OFFSET_TERMS]
+        if all(math.isfinite(e) for e in spread_errors):
+            certainty = (
+                "its coefficients carry standard errors up to "
+                f"{max(spread_errors):.2g}{unit}"
+            )
+        else:
+            certainty = "its coefficients are not determined by this record"
         return (
             f"the force's zero moves by {rise:.3g}{unit} from the start of the record "
             f"to its end and wanders about its mean with an RMS of "
             f"{np.sqrt(np.mean(spread**2)):.3g}{unit}, between {spread.min():.3g} "
             f"and {spread.max():.3g}{unit} (a spline over 24 equal parts of the "
-            "record); the constant preload is the base's f0"
+            f"record; {certainty}); the constant preload is the base's f0"
         )
