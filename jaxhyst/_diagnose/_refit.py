@@ -224,7 +224,8 @@ class ActiveProblem(eqx.Module):
     # those columns (m + q, r); None without any.
     directions: jax.Array | None
     basis: jax.Array | None
-    # The penalty's rows at the start (q,): the spline's current second differences.
+    # The penalty's rows at the start (q,): the spline's current second differences;
+    # None without a spline among the additive coordinates.
     penalty: jax.Array | None
 
     @classmethod
@@ -241,10 +242,11 @@ class ActiveProblem(eqx.Module):
         directions = basis = penalty = None
         if len(additive_index):
             columns = np.asarray(_residual_directions(problem, z0, additive))
-            rows, penalty = _spline_penalty(
-                problem.space, z0, additive, columns, splines
-            )
-            columns = np.concatenate([columns, rows])
+            rows, start = _spline_penalty(problem.space, z0, additive, columns, splines)
+            if rows.shape[0]:
+                # Without a spline there is no penalty: the residuals are the problem's.
+                columns = np.concatenate([columns, rows])
+                penalty = jnp.asarray(start)
             directions = jnp.asarray(columns)
             left, singular, _ = np.linalg.svd(columns, full_matrices=False)
             # Columns that all samples leave at zero (a term the weights mask out
@@ -252,7 +254,6 @@ class ActiveProblem(eqx.Module):
             # direction out.
             keep = singular > 1e-10 * max(float(singular[0]), np.finfo(float).tiny)
             basis = jnp.asarray(left[:, keep])
-            penalty = jnp.asarray(penalty)
         return cls(
             problem,
             z0,
