@@ -365,3 +365,34 @@ def test_benchmark_classify_covers_every_outcome(monkeypatch):
     assert classify(s("creep"), s("rate_dependence"), s("rate_dependence")) == (
         "missed"
     )
+
+
+def test_benchmark_suite_summary_splits_the_median_seconds(monkeypatch):
+    benchmarks = Path(__file__).resolve().parent.parent / "benchmarks"
+    monkeypatch.syspath_prepend(str(benchmarks))
+    common = importlib.import_module("_common")
+
+    def case(effects, named, seconds):
+        return {
+            "effects": effects,
+            "named": named,
+            "exact": set(effects) == set(named),
+            "final_over_sigma": 1.0,
+            "seconds": seconds,
+            "noise": "white",
+        }
+
+    report = {
+        "cases": [
+            case(["offset"], ["offset"], 10.0),
+            case(["offset", "asymmetry"], ["offset"], 30.0),
+            case([], [], 5.0),
+        ]
+    }
+    summary = common.score_suite(
+        report, ("offset", "asymmetry"), 1.3, effect_cases_only=True
+    )
+    assert summary["median_seconds"] == 10.0
+    assert summary["median_seconds_effect_cases"] == 20.0
+    assert summary["median_seconds_clean_cases"] == 5.0
+    assert summary["exact_set_accuracy"] == 0.5
