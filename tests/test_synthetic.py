@@ -340,14 +340,14 @@ def test_practical_arguments_are_rejected_clearly():
         jh.synthetic.SwitchOnSine(1.0, hold=0.0)
 
 
-def _practical_benchmark(monkeypatch):
+def _benchmark_module(monkeypatch, name):
     benchmarks = Path(__file__).resolve().parent.parent / "benchmarks"
     monkeypatch.syspath_prepend(str(benchmarks))
-    return importlib.import_module("practical_records")
+    return importlib.import_module(name)
 
 
 def test_benchmark_classify_covers_every_outcome(monkeypatch):
-    classify = _practical_benchmark(monkeypatch).classify
+    classify = _benchmark_module(monkeypatch, "practical_records").classify
     s = lambda *names: frozenset(names)
     assert classify(s("creep"), s("creep"), s()) == "exact"
     assert classify(s(), s(), s("creep", "drift")) == "exact"
@@ -368,9 +368,7 @@ def test_benchmark_classify_covers_every_outcome(monkeypatch):
 
 
 def test_benchmark_suite_summary_splits_the_median_seconds(monkeypatch):
-    benchmarks = Path(__file__).resolve().parent.parent / "benchmarks"
-    monkeypatch.syspath_prepend(str(benchmarks))
-    common = importlib.import_module("_common")
+    common = _benchmark_module(monkeypatch, "_common")
 
     def case(effects, named, seconds):
         return {
