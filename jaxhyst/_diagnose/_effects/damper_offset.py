@@ -69,11 +69,11 @@ class DamperOffset(AbstractEffect):
         unit = "" if unit in ("", "1") else f" {unit}"
         rise = curve[-1] - curve[0]
         spread = curve - curve.mean()
-        spread_errors = [errors.get(n, math.nan) for n in OFFSET_TERMS]
-        if all(math.isfinite(e) for e in spread_errors):
+        coefficient_errors = [errors.get(n, math.nan) for n in OFFSET_TERMS]
+        if all(math.isfinite(e) for e in coefficient_errors):
             certainty = (
                 "its coefficients carry standard errors up to "
-                f"{max(spread_errors):.2g}{unit}"
+                f"{max(coefficient_errors):.2g}{unit}"
             )
         else:
             certainty = "its coefficients are not determined by this record"
