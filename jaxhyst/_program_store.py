@@ -32,6 +32,7 @@ pickled Python objects (the non-array parts of the outputs) and programs: like t
 compilation cache, do not point it at a folder that others can write.
 """
 
+import contextlib
 import dataclasses
 import enum
 import functools
@@ -42,8 +43,10 @@ import pickle
 import re
 import sys
 import tempfile
+import threading
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, Generic, ParamSpec, TypeVar
 
@@ -240,38 +243,74 @@ class _StoredJit(Generic[_P, _R]):
         )
         self._fn = fn
         self._compiler_options = compiler_options
-        self._memo: dict[str, _Program | None] = {}  # None: cannot be stored
+        # One future per key: the program (None: it cannot be stored), resolved once
+        # it is built (or read) and compiled; a call that finds another thread
+        # building it waits for that instead of building it again.
+        self._memo: dict[str, Future[_Program | None]] = {}
+        self._lock = threading.Lock()
         functools.update_wrapper(self, fn)
 
     def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
+        found = self._stored_program(args, kwargs)
+        if found is None:
+            return self.jitted(*args, **kwargs)
+        program, arrays = found
+        return _rebuild(program.skeleton, program.run(*arrays))
+
+    def prepare(self, *args: _P.args, **kwargs: _P.kwargs) -> None:
+        """Trace, export and compile the program that a call with these arguments
+        runs, or read it from the store, without running it: a later call whose
+        arguments have the same structure (shapes, dtypes, static values) starts at
+        once. Meant for a background thread while other work runs (`identify`
+        prepares its polish and its identifiability during the swarm); a call that
+        arrives while it works waits for it instead of doing the work twice. Does
+        nothing where the call would run unstored (the store off, an argument the
+        key cannot pin down, a program that calls back into Python)."""
+        self._stored_program(args, kwargs)
+
+    def _stored_program(self, args, kwargs) -> "tuple[_Program, list] | None":
+        """The compiled stored program for these arguments and their array leaves,
+        or None where the call runs as plain `eqx.filter_jit`."""
         store = _store
         if store is None or any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
-            return self.jitted(*args, **kwargs)
+            return None
         arguments = (args, kwargs)
         leaves, treedef = jax.tree_util.tree_flatten(arguments)
         if any(isinstance(leaf, Tracer) for leaf in leaves) or not all(
             _on_default_device(leaf) for leaf in leaves
         ):
-            return self.jitted(*args, **kwargs)
+            return None
         try:
             # The function itself too: a lambda, a local function or a closure over
             # what cannot be pinned is not.
             function = _encode(self._fn, static=True)
             key = "|".join([_environment(), function, _encode(arguments)])
         except _Unpinned:
-            return self.jitted(*args, **kwargs)
+            return None
         digest = hashlib.sha256(key.encode()).hexdigest()
-        if digest not in self._memo:
-            program = self._load(store, digest, key)
-            if program is None:
-                program = self._build(store, digest, key, leaves, treedef)
-            self._memo[digest] = program
-        program = self._memo[digest]
-        if program is None:
-            return self.jitted(*args, **kwargs)
         arrays = [leaf for leaf in leaves if eqx.is_array(leaf)]
-        outputs = program.run(*arrays)
-        return _rebuild(program.skeleton, outputs)
+        with self._lock:
+            future = self._memo.get(digest)
+            building = future is None
+            if building:
+                future = self._memo[digest] = Future()
+        if building:
+            try:
+                program = self._load(store, digest, key)
+                if program is None:
+                    program = self._build(store, digest, key, leaves, treedef)
+                if program is not None:
+                    # Compiled here, so that a thread waiting on the future finds it
+                    # compiled (the call's jit reuses this compilation).
+                    program.run.lower(*arrays).compile()
+            except BaseException as error:
+                with self._lock:
+                    del self._memo[digest]  # a later call tries again
+                future.set_exception(error)
+                raise
+            future.set_result(program)
+        program = future.result()
+        return None if program is None else (program, arrays)
 
     def _wrap(self, exported) -> Callable[..., Any]:
         # Every input on the default device, committed or not: one compilation
@@ -434,3 +473,18 @@ def stored_jit(
     if fn is None:
         return functools.partial(stored_jit, compiler_options=compiler_options)
     return _StoredJit(fn, compiler_options)
+
+
+@contextlib.contextmanager
+def preparing(prepare: Callable[[], None]) -> Iterator[None]:
+    """Run `prepare` (calls of `stored_jit`'s `prepare`) in a background thread while
+    the block runs, and wait for it at the block's end, raising what it raised. On
+    two cores the programs a pipeline needs later compile while its first stage
+    runs. With the store off it does nothing (`prepare` would have nothing to do)."""
+    if _store is None or any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
+        yield
+        return
+    with ThreadPoolExecutor(1, thread_name_prefix="jaxhyst-prepare") as pool:
+        done = pool.submit(prepare)
+        yield
+        done.result()

@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
 from pathlib import Path
 
 import equinox as eqx
@@ -16,7 +17,12 @@ import numpy as np
 import pytest
 
 from jaxhyst import _program_store
-from jaxhyst._program_store import enable_program_store, program_store, stored_jit
+from jaxhyst._program_store import (
+    enable_program_store,
+    preparing,
+    program_store,
+    stored_jit,
+)
 
 
 class _Scaled(eqx.Module):
@@ -175,9 +181,13 @@ _CHILD = textwrap.dedent(
     import jaxhyst as jh
     from jaxhyst import enable_compilation_cache
 
+    import threading
+
     traced = []
     jax.monitoring.register_event_duration_secs_listener(
-        lambda event, duration, **kw: traced.append(kw.get("fun_name"))
+        lambda event, duration, **kw: traced.append(
+            [kw.get("fun_name"), threading.current_thread().name]
+        )
         if event == "/jax/core/compile/jaxpr_trace_duration" else None
     )
     enable_compilation_cache()
@@ -216,9 +226,17 @@ def test_a_second_process_identifies_without_tracing_the_fit(tmp_path):
     assert len(stored) >= 3  # the swarm, the polish, the identifiability at least
     # Traced under the export's jit ("stored_<name>"), which traces them inside it.
     heavy = {"stored__run_chunk", "stored__optimistix_loop", "stored__jacobian"}
-    assert heavy <= set(first["traced"]), first["traced"]
+    names = [name for name, _ in first["traced"]]
+    assert heavy <= set(names), first["traced"]
+    # Each once: the polish and the identifiability in the background thread that
+    # prepares them during the swarm, and the calls after it reuse them.
+    assert all(names.count(name) == 1 for name in heavy), first["traced"]
+    threads = {name: thread for name, thread in first["traced"]}
+    assert threads["stored__run_chunk"] == "MainThread"
+    assert threads["stored__optimistix_loop"].startswith("jaxhyst-prepare")
+    assert threads["stored__jacobian"].startswith("jaxhyst-prepare")
     second = _identify_in_child(cache)
-    assert not heavy & set(second["traced"]), second["traced"]
+    assert not heavy & {name for name, _ in second["traced"]}, second["traced"]
     assert _files(cache / "programs") == stored
     assert second["parameters"] == first["parameters"]
 
@@ -250,3 +268,82 @@ def test_a_store_that_cannot_be_written_runs_the_program_all_the_same(store, tmp
     out = _stored(_model(), jnp.ones(3), 0.5)
     assert float(out["y"]) == 6.5 and out["n"] == 2
     assert traces["count"] == 1
+
+
+def _compiled_programs():
+    compiled = []
+
+    def listener(event, duration, **kwargs):
+        if event == "/jax/core/compile/backend_compile_duration":
+            compiled.append(kwargs.get("fun_name"))
+
+    return compiled, listener
+
+
+def test_prepare_compiles_without_running_and_a_later_call_reuses_it(store):
+    compiled, listener = _compiled_programs()
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        x = jnp.ones(3)
+        assert _stored.prepare(_model(), x, 0.5) is None
+        assert traces["count"] == 1 and len(_files(store)) == 1
+        assert compiled.count("jit(call)") == 1
+        out = _stored(_Scaled(jnp.array([3.0, 2.0, 1.0]), 2), 2 * x, 0.5)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert float(out["y"]) == 24.5 and out["n"] == 2
+    assert traces["count"] == 1  # not traced again
+    assert compiled.count("jit(call)") == 1  # nor compiled again
+
+
+_gate = {"inside": threading.Event(), "release": threading.Event()}
+
+
+def _slow(x):
+    traces["count"] += 1
+    _gate["inside"].set()
+    _gate["release"].wait(timeout=30)
+    return x * 2.0
+
+
+def test_a_call_waits_for_the_thread_preparing_its_program(store, monkeypatch):
+    monkeypatch.setitem(_gate, "inside", threading.Event())
+    monkeypatch.setitem(_gate, "release", threading.Event())
+    stored = stored_jit(_slow)
+    x = jnp.ones(3)
+    preparer = threading.Thread(target=stored.prepare, args=(x,))
+    preparer.start()
+    assert _gate["inside"].wait(timeout=30)  # the preparer is tracing
+    results = []
+    caller = threading.Thread(target=lambda: results.append(stored(x + 1.0)))
+    caller.start()
+    caller.join(timeout=0.5)
+    assert caller.is_alive()  # waiting on the preparer, not tracing a second time
+    _gate["release"].set()
+    preparer.join(timeout=30)
+    caller.join(timeout=30)
+    np.testing.assert_array_equal(results[0], 2 * (x + 1.0))
+    assert traces["count"] == 1
+    assert len(_files(store)) == 1
+
+
+def test_preparing_runs_in_the_background_and_raises_what_it_raised(store):
+    ran = []
+    with preparing(lambda: ran.append(threading.current_thread().name)):
+        pass
+    assert ran and ran[0].startswith("jaxhyst-prepare")
+
+    def broken():
+        raise KeyError("a bug in a preparation")
+
+    with pytest.raises(KeyError, match="a bug in a preparation"):
+        with preparing(broken):
+            pass
+
+
+def test_preparing_does_nothing_with_the_store_off():
+    assert program_store() is None
+    ran = []
+    with preparing(lambda: ran.append(1)):
+        pass
+    assert ran == []

@@ -57,6 +57,17 @@ def output_jacobian(
     ).reshape(-1)
 
 
+def prepare_output_jacobian(
+    model: AbstractHysteresisModel,
+    names: Sequence[str],
+    outputs: Callable[[AbstractHysteresisModel], Array],
+) -> None:
+    """Compile what `output_jacobian(model, names, outputs)` runs without running it,
+    where the program store is on (`stored_jit.prepare`); `model`'s values do not
+    matter, only its structure."""
+    _jacobian.prepare(model, tuple(names), outputs)
+
+
 def covariance(
     jacobian: Float[np.ndarray, "n p"], sigma2: float
 ) -> tuple[Float[np.ndarray, " p"], Float[np.ndarray, "p p"]]:

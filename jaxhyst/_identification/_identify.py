@@ -10,6 +10,7 @@ runs optimistix Levenberg-Marquardt (or BFGS, or optax Adam) on every sample fro
 swarm's best; identifiability is read off the Jacobian at the result.
 """
 
+import functools
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -25,13 +26,18 @@ from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel, DataScales
 from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
-from .._program_store import stored_jit
+from .._program_store import preparing, stored_jit
 from .._recording import Recording
 from .._simulate import RK4, AbstractSimulationSolver
 from .._stability import stability_json
 from .._status import RESULTS, raise_unless_successful, status_message, status_name
 from .._swarm import MPSO, SwarmResult, run_swarm
-from ._identifiability import Identifiability, identifiability_of, output_jacobian
+from ._identifiability import (
+    Identifiability,
+    identifiability_of,
+    output_jacobian,
+    prepare_output_jacobian,
+)
 from ._polish import AbstractPolish, LevenbergMarquardtPolish, PolishResult
 from ._problem import (
     Problem,
@@ -394,63 +400,68 @@ def identify(
     ]
     problem = per_record[0] if len(records) == 1 else stack_problems(per_record)
     release_if_near_map_limit("identify")
+    # Every sample of every record (the fit's weights aside), padding masked.
+    unweighted = [
+        eqx.tree_at(lambda p: p.weights, p, None, is_leaf=lambda x: x is None)
+        for p in per_record
+    ]
+    analysed = unweighted[0] if len(records) == 1 else stack_problems(unweighted)
     timing: dict[str, float] = {}
     stride = swarm_stride or min(swarm_samples_per_step(r.u) for r in records)
-    seeds, swarm_result = starting_points(
-        space,
-        lambda: swarm_problem(problem, stride),
-        swarm,
-        key,
-        start,
-        timing,
-        stall_iterations=stall_iterations,
-        chunk_size=20,
-        progress=progress,
+    # On the default device, the polish's and the analysis's programs compile in a
+    # background thread while the swarm runs (elsewhere they run unstored).
+    prepare_later = functools.partial(
+        _prepare_after_search, problem, analysed, polish, analyse
     )
-    problem, seeds = moved_to((problem, seeds), device)
-    with running_on(device):
-        z, polish_result = refine(
-            [PolishStage("polish", problem, polish)], seeds, timing
+    with preparing(prepare_later if device is None else _nothing):
+        seeds, swarm_result = starting_points(
+            space,
+            lambda: swarm_problem(problem, stride),
+            swarm,
+            key,
+            start,
+            timing,
+            stall_iterations=stall_iterations,
+            chunk_size=20,
+            progress=progress,
         )
-        fitted = model_at(problem.space, z)
-        # Every sample of every record (the fit's weights aside), padding masked.
-        unweighted = [
-            eqx.tree_at(lambda p: p.weights, p, None, is_leaf=lambda x: x is None)
-            for p in per_record
-        ]
-        analysed = moved_to(
-            unweighted[0] if len(records) == 1 else stack_problems(unweighted), device
-        )
-        report = None
-        if analyse:
-            # One program gives the output and its sensitivities.
-            t0 = time.perf_counter()
-            jac, flat = output_jacobian(
-                fitted, fitted.parameter_names, analysed.simulated
+        problem, seeds, analysed = moved_to((problem, seeds, analysed), device)
+        with running_on(device):
+            z, polish_result = refine(
+                [PolishStage("polish", problem, polish)], seeds, timing
             )
-            report = identifiability_of(
-                fitted,
-                jac,
-                flat - np.asarray(analysed.measured).reshape(-1),
-                weights=analysed.weights,
-                free=space.names,
+            fitted = model_at(problem.space, z)
+            report = None
+            if analyse:
+                # One program gives the output and its sensitivities.
+                t0 = time.perf_counter()
+                jac, flat = output_jacobian(
+                    fitted, fitted.parameter_names, analysed.simulated
+                )
+                report = identifiability_of(
+                    fitted,
+                    jac,
+                    flat - np.asarray(analysed.measured).reshape(-1),
+                    weights=analysed.weights,
+                    free=space.names,
+                )
+                timing["identifiability_s"] = time.perf_counter() - t0
+            else:
+                flat = np.asarray(_simulated(analysed, fitted))
+            simulated = flat.reshape(len(records), -1)
+            predicted = tuple(
+                jnp.asarray(simulated[i, : r.num_samples])
+                for i, r in enumerate(records)
             )
-            timing["identifiability_s"] = time.perf_counter() - t0
-        else:
-            flat = np.asarray(_simulated(analysed, fitted))
-        simulated = flat.reshape(len(records), -1)
-        predicted = tuple(
-            jnp.asarray(simulated[i, : r.num_samples]) for i, r in enumerate(records)
-        )
-        metrics = error_metrics(
-            np.concatenate([r.y for r in records]), np.concatenate(predicted)
-        )
-        per_recording = ()
-        if len(records) > 1:
-            per_recording = tuple(
-                RecordingMetrics(r.name, error_metrics(r.y, p))
-                for r, p in zip(records, predicted)
+            metrics = error_metrics(
+                np.concatenate([r.y for r in records]), np.concatenate(predicted)
             )
+            per_recording = ()
+            if len(records) > 1:
+                per_recording = tuple(
+                    RecordingMetrics(r.name, error_metrics(r.y, p))
+                    for r, p in zip(records, predicted)
+                )
     timing["total_s"] = time.perf_counter() - t_start
     fit = Fit(
         fitted,
@@ -471,3 +482,28 @@ def identify(
 @stored_jit
 def _simulated(problem: Problem, model: AbstractHysteresisModel):
     return problem.simulated(model)
+
+
+def _nothing() -> None:
+    pass
+
+
+def _prepare_after_search(
+    problem: Problem,
+    analysed: Problem,
+    polish: AbstractPolish | None,
+    analyse: bool,
+) -> None:
+    """Compile the polish's program and the final analysis's (the identifiability
+    Jacobian, or the plain simulation) while the swarm runs: their arguments' shapes
+    are known before it starts."""
+    # Any point of the box; not weakly typed, as the swarm's best is not (a weak
+    # type is part of a program's key).
+    z = 0.5 * jnp.ones(problem.space.dimension)
+    if polish is not None:
+        polish.prepare(problem, z)
+    fitted = model_at(problem.space, z)
+    if analyse:
+        prepare_output_jacobian(fitted, fitted.parameter_names, analysed.simulated)
+    else:
+        _simulated.prepare(analysed, fitted)

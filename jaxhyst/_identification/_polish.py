@@ -54,6 +54,12 @@ class AbstractPolish(eqx.Module):
     def run(self, problem: Problem, z0: Float[Array, " d"]) -> PolishResult:
         """Refine from `z0`; never returns a worse point than `z0`."""
 
+    def prepare(self, problem: Problem, z0: Float[Array, " d"]) -> None:
+        """Compile what `run(problem, z0)` runs without running it, where the program
+        store is on (`stored_jit.prepare`); `z0` gives only the shape and dtype. The
+        default does nothing; `identify` calls it in a background thread during the
+        swarm."""
+
 
 def stop_gain(min_gain: float | None, problem: Problem) -> float:
     """The relative RMSE gain per window below which a polish stops: `min_gain`, or
@@ -231,9 +237,8 @@ class AbstractOptimistixPolish(AbstractPolish):
         """Whether the solver takes the residual vector (else their mean square)."""
         return isinstance(self.solver(), optx.AbstractLeastSquaresSolver)
 
-    def run(self, problem: Problem, z0: Float[Array, " d"]) -> PolishResult:
-        start = time.perf_counter()
-        z, history, windows, steps, status = _optimistix_loop(
+    def _loop_arguments(self, problem: Problem, z0: Array) -> tuple:
+        return (
             self.solver(),
             self.least_squares,
             problem,
@@ -241,6 +246,15 @@ class AbstractOptimistixPolish(AbstractPolish):
             self.max_steps,
             max(1, min(self.window, self.max_steps)),
             jnp.asarray(stop_gain(self.min_gain, problem)),
+        )
+
+    def prepare(self, problem: Problem, z0: Float[Array, " d"]) -> None:
+        _optimistix_loop.prepare(*self._loop_arguments(problem, z0))
+
+    def run(self, problem: Problem, z0: Float[Array, " d"]) -> PolishResult:
+        start = time.perf_counter()
+        z, history, windows, steps, status = _optimistix_loop(
+            *self._loop_arguments(problem, z0)
         )
         history = np.asarray(history)[: int(windows) + 1]
         return _finished(type(self).__name__, z, history, steps, status, start)
