@@ -8,6 +8,7 @@ Each stage is a function of the typed `_Context` (what does not change) and the
 """
 
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Callable, Collection, Sequence
@@ -30,6 +31,7 @@ from .._recording import Recording
 from .._simulate import RK4
 from .._status import RESULTS
 from .._swarm import MPSO
+from .._threads import side_by_side
 from ._ambiguity import cannot_tell_rivals, confined, standing_in, unresolved
 from ._effects.base import AbstractEffect, RefitScales
 from ._families import AbstractFamily, PiezoFamily
@@ -325,7 +327,7 @@ def _windowed_start(
     weights = ctx.weights[: first.num_samples]
     space = ctx.family.base_space(ctx.recording)
 
-    def window_fit(swarm: MPSO | None, key, start) -> tuple[Any, float]:
+    def window_fit(swarm: MPSO | None, key, start, shown: bool) -> tuple[Any, float]:
         fit = identify(
             ctx.family.base_template(),
             first,
@@ -337,7 +339,7 @@ def _windowed_start(
             swarm_stride=1,
             weights=weights,
             analyse=False,
-            progress=progress,
+            progress=shown,
             stable_only=ctx.family.stable_fits,
             throw=False,
         )
@@ -354,10 +356,12 @@ def _windowed_start(
         (None, ctx.key, start) for start in ctx.family.base_starts(ctx.recording, first)
     ]
     best, best_mse = None, math.inf
-    for swarm, key, start in attempts:
-        model, mse = window_fit(swarm, key, start)
-        if math.isfinite(mse) and mse < best_mse:
-            best, best_mse = model, mse
+    # They run side by side: only the first shows its swarm's progress bar.
+    shown = [(*attempt, progress and i == 0) for i, attempt in enumerate(attempts)]
+    with side_by_side(lambda attempt: window_fit(*attempt), shown) as fits:
+        for model, mse in fits:
+            if math.isfinite(mse) and mse < best_mse:
+                best, best_mse = model, mse
     if best is None:
         raise ValueError(
             f"diagnose: the {ctx.family.base_name} base model's fit to the start of "
@@ -570,12 +574,14 @@ def _refit_candidates(
     scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
     starts = {}
     updated = {c.effect: c for c in scores}
-    for c in chosen:
-        effect = family.effect(c.effect)
-        starts[c.effect], start_mse = _best_start(
-            ctx, effect, state.current, c.step, scales
-        )
-        updated[c.effect] = dataclasses.replace(c, start_mse=start_mse)
+
+    def best_start(c: Score):
+        return _best_start(ctx, family.effect(c.effect), state.current, c.step, scales)
+
+    with side_by_side(best_start, chosen) as found:
+        for c, (start, start_mse) in zip(chosen, found):
+            starts[c.effect] = start
+            updated[c.effect] = dataclasses.replace(c, start_mse=start_mse)
     for c in scores:
         if c.effect not in starts:
             reason = (
@@ -585,13 +591,25 @@ def _refit_candidates(
                 "strongest this round"
             )
             updated[c.effect] = dataclasses.replace(updated[c.effect], rejection=reason)
-    trials = []
-    for c in chosen:
+
+    def attempt(numbered: tuple[int, Score]) -> _Trial | None:
+        # The key counts the trials made before this one: `number` of them when
+        # none of those diverged.
+        number, c = numbered
         effect = family.effect(c.effect)
-        key = jax.random.fold_in(ctx.key, 1000 * len(state.findings) + len(trials))
+        key = jax.random.fold_in(ctx.key, 1000 * len(state.findings) + number)
         trial = _trial(ctx, state, updated[c.effect], (effect,), starts[c.effect], key)
         if trial is not None and not trial.validation.accepted:
             trial = _with_dependents(ctx, state, trial, effect, scales, key)
+        return trial
+
+    trials = []
+    numbered = list(enumerate(chosen))
+    with side_by_side(attempt, numbered) as attempted:
+        outcomes = list(attempted)
+    for (number, c), trial in zip(numbered, outcomes):
+        if number != len(trials):  # an earlier one diverged: its key was not this
+            trial = attempt((len(trials), c))
         if trial is None:
             updated[c.effect] = dataclasses.replace(
                 updated[c.effect], rejection="the refitted model diverged"
@@ -1113,57 +1131,42 @@ def _rivals(ctx: _Context, state: _State) -> _State:
             )
         rivals: list[tuple[Rival, AbstractHysteresisModel]] = []
         replaced, closer = None, None
-        for name in others:
-            alternative = family.effect(name)
-            names = tuple(
-                p for p in state.free if p not in adopted_effect.parameters
-            ) + tuple(p for p in alternative.parameters if p not in state.free)
-            without = adopted_effect.switch_off(state.current)
-            if name in state.passed_trials:
-                trial, where_then = state.passed_trials[name]
-                start = alternative.take_from(without, trial.model)
-            else:
-                trial, where_then = None, None
-                scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
-                start, _ = _best_start(
-                    ctx, alternative, without, state.untried[name].step, scales
+        swap_in = functools.partial(_swapped_in, ctx, state, position, adopted_effect)
+        with side_by_side(swap_in, others) as swaps:
+            for name, (names, swapped, swapped_pred) in zip(others, swaps):
+                alternative = family.effect(name)
+                trial, where_then = state.passed_trials.get(name, (None, None))
+                if not _finite(swapped_pred):
+                    continue
+                kept_mse, rival_mse, se = _heldout_comparison(
+                    ctx, state, state.predicted, swapped_pred
                 )
-            key = jax.random.fold_in(
-                ctx.key, 7919 + 97 * position + family.effect_names.index(name)
-            )
-            swapped = _refit(ctx, state, start, names, max_steps=20, key=key)
-            swapped_pred = _predict(ctx, swapped)
-            if not _finite(swapped_pred):
-                continue
-            kept_mse, rival_mse, se = _heldout_comparison(
-                ctx, state, state.predicted, swapped_pred
-            )
-            margin = (rival_mse - kept_mse) / se if se > 0 else 0.0
-            if (
-                margin < 0
-                and trial is not None
-                and where_then is not None
-                and replacements < len(family.catalogue)
-            ):
-                swap = _Swap(
-                    trial,
-                    where_then,
-                    alternative,
-                    swapped,
-                    swapped_pred,
-                    names,
-                    kept_mse,
-                    rival_mse,
-                    resolved=margin < -RESOLVED_SIGMA,
-                )
-                if swap.resolved:
-                    replaced = swap
-                    break
-                if name not in left_behind and (
-                    closer is None or rival_mse < closer.rival_mse
+                margin = (rival_mse - kept_mse) / se if se > 0 else 0.0
+                if (
+                    margin < 0
+                    and trial is not None
+                    and where_then is not None
+                    and replacements < len(family.catalogue)
                 ):
-                    closer = swap
-            rivals.append((Rival(name, math.sqrt(rival_mse), margin), swapped))
+                    swap = _Swap(
+                        trial,
+                        where_then,
+                        alternative,
+                        swapped,
+                        swapped_pred,
+                        names,
+                        kept_mse,
+                        rival_mse,
+                        resolved=margin < -RESOLVED_SIGMA,
+                    )
+                    if swap.resolved:
+                        replaced = swap
+                        break
+                    if name not in left_behind and (
+                        closer is None or rival_mse < closer.rival_mse
+                    ):
+                        closer = swap
+                rivals.append((Rival(name, math.sqrt(rival_mse), margin), swapped))
         if replaced is None and closer is not None:
             replaced = closer
             left_behind.add(finding.effect)
@@ -1200,6 +1203,36 @@ def _rivals(ctx: _Context, state: _State) -> _State:
             )
         position += 1
     return state
+
+
+def _swapped_in(
+    ctx: _Context,
+    state: _State,
+    position: int,
+    adopted_effect: AbstractEffect,
+    name: str,
+) -> tuple[tuple[str, ...], AbstractHysteresisModel, np.ndarray]:
+    """The rival `name` refitted in the place of the finding at `position` (with
+    the other findings kept): the refit's free parameters, the model, its output."""
+    family = ctx.family
+    alternative = family.effect(name)
+    names = tuple(p for p in state.free if p not in adopted_effect.parameters) + tuple(
+        p for p in alternative.parameters if p not in state.free
+    )
+    without = adopted_effect.switch_off(state.current)
+    if name in state.passed_trials:
+        trial, _ = state.passed_trials[name]
+        start = alternative.take_from(without, trial.model)
+    else:
+        scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
+        start, _ = _best_start(
+            ctx, alternative, without, state.untried[name].step, scales
+        )
+    key = jax.random.fold_in(
+        ctx.key, 7919 + 97 * position + family.effect_names.index(name)
+    )
+    swapped = _refit(ctx, state, start, names, max_steps=20, key=key)
+    return names, swapped, _predict(ctx, swapped)
 
 
 class _Swap(eqx.Module):
