@@ -1062,13 +1062,18 @@ def _backward(ctx: _Context, state: _State) -> _State:
     while len(state.findings) >= 2:
         hold_now = _mse(ctx.y - state.predicted, ctx.hold_mask)
         weakest = None
-        for finding in state.findings:
+
+        def without(finding: Finding, state: _State = state):
             effect = family.effect(finding.effect)
             names = tuple(p for p in state.free if p not in effect.parameters)
             reduced = _refit(
                 ctx, state, effect.switch_off(state.current), names, max_steps=20
             )
-            reduced_pred = _predict(ctx, reduced)
+            return names, reduced, _predict(ctx, reduced)
+
+        with side_by_side(without, state.findings) as refitted:
+            reductions = list(zip(state.findings, refitted))
+        for finding, (names, reduced, reduced_pred) in reductions:
             if not _finite(reduced_pred):
                 continue
             loss = _mse(ctx.y - reduced_pred, ctx.hold_mask) - hold_now
