@@ -48,7 +48,7 @@ import types
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any, Generic, ParamSpec, TypeVar
+from typing import Any, Generic, NamedTuple, ParamSpec, TypeVar
 
 import equinox as eqx
 import jax
@@ -229,6 +229,16 @@ class _Program:
     skeleton: Any  # the output with `_Slot`s where its arrays go
 
 
+class _Keyed(NamedTuple):
+    """A call's key (what tracing depends on), its digest, and its flattened
+    arguments."""
+
+    key: str
+    digest: str
+    leaves: list
+    treedef: Any
+
+
 class _StoredJit(Generic[_P, _R]):
     """`eqx.filter_jit(fn)` with its traced programs kept in the program store."""
 
@@ -247,32 +257,52 @@ class _StoredJit(Generic[_P, _R]):
         # it is built (or read) and compiled; a call that finds another thread
         # building it waits for that instead of building it again.
         self._memo: dict[str, Future[_Program | None]] = {}
+        # The same for calls that run unstored (`jitted`), prepared by `prepare`
+        # and not yet called (a call takes its key out: JAX's caches hold the rest).
+        self._prepared: dict[str, Future[None]] = {}
         self._lock = threading.Lock()
         functools.update_wrapper(self, fn)
 
     def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
         found = self._stored_program(args, kwargs)
-        if found is None:
-            return self.jitted(*args, **kwargs)
-        program, arrays = found
-        return _rebuild(program.skeleton, program.run(*arrays))
+        if found is not None:
+            program, arrays = found
+            return _rebuild(program.skeleton, program.run(*arrays))
+        if self._prepared:  # wait for a preparation of this call still under way
+            keyed = self._keyed(args, kwargs)
+            if keyed is not None:
+                with self._lock:
+                    preparation = self._prepared.pop(keyed.digest, None)
+                if preparation is not None:
+                    preparation.result()
+        return self.jitted(*args, **kwargs)
 
     def prepare(self, *args: _P.args, **kwargs: _P.kwargs) -> None:
-        """Trace, export and compile the program that a call with these arguments
-        runs, or read it from the store, without running it: a later call whose
-        arguments have the same structure (shapes, dtypes, static values) starts at
-        once. Meant for a background thread while other work runs (`identify`
-        prepares its polish and its identifiability during the swarm); a call that
-        arrives while it works waits for it instead of doing the work twice. Does
-        nothing where the call would run unstored (the store off, an argument the
-        key cannot pin down, a program that calls back into Python)."""
-        self._stored_program(args, kwargs)
+        """Trace and compile the program that a call with these arguments runs
+        (with the store on: trace, export and compile it, or read it from the
+        store), without running it: a later call whose arguments have the same
+        structure (shapes, dtypes, static values) starts at once. Meant for a
+        background thread while other work runs (`identify` prepares its polish and
+        its identifiability during the swarm); a call that arrives while it works
+        waits for it instead of doing the work twice. Does nothing for calls that
+        are themselves traced, or whose arguments the key cannot pin down."""
+        if self._stored_program(args, kwargs) is not None:
+            return
+        keyed = self._keyed(args, kwargs)
+        if keyed is None:
+            return
 
-    def _stored_program(self, args, kwargs) -> "tuple[_Program, list] | None":
-        """The compiled stored program for these arguments and their array leaves,
-        or None where the call runs as plain `eqx.filter_jit`."""
-        store = _store
-        if store is None or any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
+        def compile_it() -> None:
+            # The call's own jit: its later calls reuse this trace and compilation.
+            self.jitted.lower(*args, **kwargs).compile()
+
+        self._once(self._prepared, keyed.digest, compile_it)
+
+    def _keyed(self, args, kwargs) -> "_Keyed | None":
+        """The key of a call, or None where it runs as plain `eqx.filter_jit`
+        whatever the store (debug options, traced or other-device arguments,
+        arguments the key cannot pin down)."""
+        if any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
             return None
         arguments = (args, kwargs)
         leaves, treedef = jax.tree_util.tree_flatten(arguments)
@@ -288,28 +318,51 @@ class _StoredJit(Generic[_P, _R]):
         except _Unpinned:
             return None
         digest = hashlib.sha256(key.encode()).hexdigest()
-        arrays = [leaf for leaf in leaves if eqx.is_array(leaf)]
+        return _Keyed(key, digest, leaves, treedef)
+
+    def _once(self, memo: dict, digest: str, build: Callable[[], Any]) -> Any:
+        """`build()` once per `digest` in `memo`, whichever thread asks first; the
+        others wait for its result (or its exception)."""
         with self._lock:
-            future = self._memo.get(digest)
+            future = memo.get(digest)
             building = future is None
             if building:
-                future = self._memo[digest] = Future()
+                future = memo[digest] = Future()
         if building:
             try:
-                program = self._load(store, digest, key)
-                if program is None:
-                    program = self._build(store, digest, key, leaves, treedef)
-                if program is not None:
-                    # Compiled here, so that a thread waiting on the future finds it
-                    # compiled (the call's jit reuses this compilation).
-                    program.run.lower(*arrays).compile()
+                value = build()
             except BaseException as error:
                 with self._lock:
-                    del self._memo[digest]  # a later call tries again
+                    del memo[digest]  # a later call tries again
                 future.set_exception(error)
                 raise
-            future.set_result(program)
-        program = future.result()
+            future.set_result(value)
+        return future.result()
+
+    def _stored_program(self, args, kwargs) -> "tuple[_Program, list] | None":
+        """The compiled stored program for these arguments and their array leaves,
+        or None where the call runs as plain `eqx.filter_jit`."""
+        store = _store
+        if store is None:
+            return None
+        keyed = self._keyed(args, kwargs)
+        if keyed is None:
+            return None
+        arrays = [leaf for leaf in keyed.leaves if eqx.is_array(leaf)]
+
+        def build() -> _Program | None:
+            program = self._load(store, keyed.digest, keyed.key)
+            if program is None:
+                program = self._build(
+                    store, keyed.digest, keyed.key, keyed.leaves, keyed.treedef
+                )
+            if program is not None:
+                # Compiled here, so that a thread waiting on the future finds it
+                # compiled (the call's jit reuses this compilation).
+                program.run.lower(*arrays).compile()
+            return program
+
+        program = self._once(self._memo, keyed.digest, build)
         return None if program is None else (program, arrays)
 
     def _wrap(self, exported) -> Callable[..., Any]:
@@ -480,8 +533,9 @@ def preparing(prepare: Callable[[], None]) -> Iterator[None]:
     """Run `prepare` (calls of `stored_jit`'s `prepare`) in a background thread while
     the block runs, and wait for it at the block's end, raising what it raised. On
     two cores the programs a pipeline needs later compile while its first stage
-    runs. With the store off it does nothing (`prepare` would have nothing to do)."""
-    if _store is None or any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
+    runs. With JAX's debug options on (`jax_disable_jit`, `jax_debug_nans`) it
+    does nothing: calls then run op by op."""
+    if any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
         yield
         return
     with ThreadPoolExecutor(1, thread_name_prefix="jaxhyst-prepare") as pool:

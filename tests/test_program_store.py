@@ -341,9 +341,66 @@ def test_preparing_runs_in_the_background_and_raises_what_it_raised(store):
             pass
 
 
-def test_preparing_does_nothing_with_the_store_off():
+def test_with_the_store_off_prepare_compiles_the_program_the_call_runs(monkeypatch):
     assert program_store() is None
+    monkeypatch.setattr(  # this module's names pinned, as the `store` fixture does
+        _program_store,
+        "_PINNED_PACKAGES",
+        (*_program_store._PINNED_PACKAGES, __name__.split(".")[0]),
+    )
+    compiled, listener = _compiled_programs()
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        traces["count"] = 0
+        x = jnp.ones(7)  # a shape no other test uses: nothing cached yet
+        model = _Scaled(jnp.arange(7.0), 3)
+        thread = threading.Thread(target=_stored.prepare, args=(model, x, 0.25))
+        thread.start()
+        thread.join()
+        assert traces["count"] == 1 and compiled.count("jit(_body)") == 1
+        out = _stored(model, 2 * x, 0.25)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert float(out["y"]) == pytest.approx(8 * 21 + 0.25)
+    assert traces["count"] == 1 and compiled.count("jit(_body)") == 1
+
+
+def test_preparing_does_nothing_when_jit_is_off():
     ran = []
-    with preparing(lambda: ran.append(1)):
-        pass
+    with jax.disable_jit():
+        with preparing(lambda: ran.append(1)):
+            pass
     assert ran == []
+
+
+def test_identify_compiles_its_polish_during_the_swarm_with_the_store_off():
+    """In-process, no cache: the polish's and the identifiability's programs are
+    traced once each, in the preparing thread."""
+    import jaxhyst as jh
+
+    assert program_store() is None
+    traced = []
+
+    def listener(event, duration, **kwargs):
+        if event == "/jax/core/compile/jaxpr_trace_duration":
+            traced.append((kwargs.get("fun_name"), threading.current_thread().name))
+
+    model = jh.PiezoBoucWen.paper_table4(3)
+    path = jh.sample(jh.paper_u1(), 13.0)  # 131 samples: a length no other test uses
+    y = np.asarray(jh.simulate(model, path, jh.RK4()))
+    recording = jh.Recording(np.arange(path.num_samples) / 13.0, path.values, y)
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        jh.identify(
+            jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
+            recording,
+            key=jax.random.key(0),
+            swarm=jh.MPSO(num_particles=8, num_iterations=10),
+            throw=False,
+        )
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    for name in ("_optimistix_loop", "_jacobian"):
+        threads = [thread for fun, thread in traced if fun == name]
+        assert len(threads) == 1, traced
+        assert threads[0].startswith("jaxhyst-prepare"), traced

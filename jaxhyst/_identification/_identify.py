@@ -413,6 +413,8 @@ def identify(
     prepare_later = functools.partial(
         _prepare_after_search, problem, analysed, polish, analyse
     )
+    # The block ends after the polish: the analysis waits for its program to be
+    # ready rather than compile it a second time.
     with preparing(prepare_later if device is None else _nothing):
         seeds, swarm_result = starting_points(
             space,
@@ -430,38 +432,38 @@ def identify(
             z, polish_result = refine(
                 [PolishStage("polish", problem, polish)], seeds, timing
             )
-            fitted = model_at(problem.space, z)
-            report = None
-            if analyse:
-                # One program gives the output and its sensitivities.
-                t0 = time.perf_counter()
-                jac, flat = output_jacobian(
-                    fitted, fitted.parameter_names, analysed.simulated
-                )
-                report = identifiability_of(
-                    fitted,
-                    jac,
-                    flat - np.asarray(analysed.measured).reshape(-1),
-                    weights=analysed.weights,
-                    free=space.names,
-                )
-                timing["identifiability_s"] = time.perf_counter() - t0
-            else:
-                flat = np.asarray(_simulated(analysed, fitted))
-            simulated = flat.reshape(len(records), -1)
-            predicted = tuple(
-                jnp.asarray(simulated[i, : r.num_samples])
-                for i, r in enumerate(records)
+    with running_on(device):
+        fitted = model_at(problem.space, z)
+        report = None
+        if analyse:
+            # One program gives the output and its sensitivities.
+            t0 = time.perf_counter()
+            jac, flat = output_jacobian(
+                fitted, fitted.parameter_names, analysed.simulated
             )
-            metrics = error_metrics(
-                np.concatenate([r.y for r in records]), np.concatenate(predicted)
+            report = identifiability_of(
+                fitted,
+                jac,
+                flat - np.asarray(analysed.measured).reshape(-1),
+                weights=analysed.weights,
+                free=space.names,
             )
-            per_recording = ()
-            if len(records) > 1:
-                per_recording = tuple(
-                    RecordingMetrics(r.name, error_metrics(r.y, p))
-                    for r, p in zip(records, predicted)
-                )
+            timing["identifiability_s"] = time.perf_counter() - t0
+        else:
+            flat = np.asarray(_simulated(analysed, fitted))
+        simulated = flat.reshape(len(records), -1)
+        predicted = tuple(
+            jnp.asarray(simulated[i, : r.num_samples]) for i, r in enumerate(records)
+        )
+        metrics = error_metrics(
+            np.concatenate([r.y for r in records]), np.concatenate(predicted)
+        )
+        per_recording = ()
+        if len(records) > 1:
+            per_recording = tuple(
+                RecordingMetrics(r.name, error_metrics(r.y, p))
+                for r, p in zip(records, predicted)
+            )
     timing["total_s"] = time.perf_counter() - t_start
     fit = Fit(
         fitted,
