@@ -25,6 +25,12 @@ lambda or local function, a closure over arrays or over such objects, a
 `jax.jit`, `jax.vmap`, `jax.grad`), the call runs as plain `eqx.filter_jit` and
 nothing is stored.
 
+`prepare` traces and compiles what a call would run without running it (store on or
+off), so that a pipeline compiles its later stages in a background thread
+(`preparing`) while an earlier one runs: `identify` compiles its polish and its
+identifiability during the swarm. A call that arrives while another thread builds
+its program waits for it instead of building it again.
+
 Files are written to a temporary name and renamed, so two processes sharing the
 folder never read a half-written program; each file carries a checksum and its full
 key, and one that does not match is traced again and written over. The store holds

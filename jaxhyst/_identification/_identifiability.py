@@ -62,9 +62,8 @@ def prepare_output_jacobian(
     names: Sequence[str],
     outputs: Callable[[AbstractHysteresisModel], Array],
 ) -> None:
-    """Compile what `output_jacobian(model, names, outputs)` runs without running it,
-    where the program store is on (`stored_jit.prepare`); `model`'s values do not
-    matter, only its structure."""
+    """Compile what `output_jacobian(model, names, outputs)` runs without running it
+    (`stored_jit.prepare`); `model`'s values do not matter, only its structure."""
     _jacobian.prepare(model, tuple(names), outputs)
 
 

@@ -55,10 +55,9 @@ class AbstractPolish(eqx.Module):
         """Refine from `z0`; never returns a worse point than `z0`."""
 
     def prepare(self, problem: Problem, z0: Float[Array, " d"]) -> None:
-        """Compile what `run(problem, z0)` runs without running it, where the program
-        store is on (`stored_jit.prepare`); `z0` gives only the shape and dtype. The
-        default does nothing; `identify` calls it in a background thread during the
-        swarm."""
+        """Compile what `run(problem, z0)` runs without running it
+        (`stored_jit.prepare`); `z0` gives only the shape and dtype. The default does
+        nothing; `identify` calls it in a background thread during the swarm."""
 
 
 def stop_gain(min_gain: float | None, problem: Problem) -> float:
