@@ -14,6 +14,7 @@ over a box `lower <= x <= upper`. The pieces are
 
 import dataclasses
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
@@ -530,13 +531,18 @@ def _run_chunk(
 
 
 class _CompileTimer:
-    """Sums JAX's tracing/lowering/compilation durations while registered."""
+    """Sums JAX's tracing/lowering/compilation durations in this thread while
+    registered (the listener hears every thread's: `identify` compiles its polish in
+    another while the swarm runs, and a diagnosis runs swarms side by side)."""
 
     def __init__(self):
         self.seconds = 0.0
+        self._thread = threading.get_ident()
 
     def __call__(self, event: str, duration_secs: float, **kwargs: str | int) -> None:
-        if event.startswith("/jax/core/compile/"):
+        if event.startswith("/jax/core/compile/") and (
+            threading.get_ident() == self._thread
+        ):
             self.seconds += duration_secs
 
     def __enter__(self):

@@ -2,6 +2,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
 
 import equinox as eqx
 import jax
@@ -473,3 +474,19 @@ def test_two_devices_match_single_device():
     )
     assert completed.returncode == 0, completed.stderr[-4000:]
     assert "SHARDED-OK" in completed.stdout
+
+
+def test_the_compile_timer_counts_only_its_own_thread():
+    from jaxhyst._swarm import _CompileTimer
+
+    def compile_elsewhere():
+        jax.jit(lambda x: jnp.sin(x) * 3.0 + 1.25).lower(jnp.ones(11)).compile()
+
+    with _CompileTimer() as timer:
+        other = threading.Thread(target=compile_elsewhere)
+        other.start()
+        other.join()
+    assert timer.seconds == 0.0
+    with _CompileTimer() as timer:
+        jax.jit(lambda x: jnp.cos(x) * 3.0 - 1.25).lower(jnp.ones(11)).compile()
+    assert timer.seconds > 0.0
