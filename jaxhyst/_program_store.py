@@ -231,7 +231,7 @@ class _Slot:
 
 @dataclasses.dataclass(frozen=True)
 class _Program:
-    run: Callable[..., Any]  # array leaves in, array outputs out
+    run: Any  # `jax.jit` of the exported call: array leaves in, arrays out
     skeleton: Any  # the output with `_Slot`s where its arrays go
 
 
@@ -252,7 +252,8 @@ class _StoredJit(Generic[_P, _R]):
         # `_traced` runs inside the export's `jax.jit` (nested: no compiler options;
         # the exported call's `jax.jit` compiles with them).
         self._traced = eqx.filter_jit(fn)
-        self.jitted = (
+        # `Any`: equinox's jit wrapper (called, and `.lower`-ed by `prepare`).
+        self.jitted: Any = (
             self._traced
             if compiler_options is None
             else eqx.filter_jit(fn, compiler_options=compiler_options)  # pyright: ignore[reportCallIssue]

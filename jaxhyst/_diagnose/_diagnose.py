@@ -327,7 +327,8 @@ def _windowed_start(
     weights = ctx.weights[: first.num_samples]
     space = ctx.family.base_space(ctx.recording)
 
-    def window_fit(swarm: MPSO | None, key, start, shown: bool) -> tuple[Any, float]:
+    def window_fit(attempt: tuple[MPSO | None, Any, Any, bool]) -> tuple[Any, float]:
+        swarm, key, start, shown = attempt
         fit = identify(
             ctx.family.base_template(),
             first,
@@ -357,8 +358,11 @@ def _windowed_start(
     ]
     best, best_mse = None, math.inf
     # They run side by side: only the first shows its swarm's progress bar.
-    shown = [(*attempt, progress and i == 0) for i, attempt in enumerate(attempts)]
-    with side_by_side(lambda attempt: window_fit(*attempt), shown) as fits:
+    shown = [
+        (swarm, key, start, progress and i == 0)
+        for i, (swarm, key, start) in enumerate(attempts)
+    ]
+    with side_by_side(window_fit, shown) as fits:
         for model, mse in fits:
             if math.isfinite(mse) and mse < best_mse:
                 best, best_mse = model, mse
