@@ -309,7 +309,7 @@ class _StoredJit(Generic[_P, _R]):
         """The key of a call, or None where it runs as plain `eqx.filter_jit`
         whatever the store (debug options, traced or other-device arguments,
         arguments the key cannot pin down)."""
-        if any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
+        if _debugging():
             return None
         arguments = (args, kwargs)
         leaves, treedef = jax.tree_util.tree_flatten(arguments)
@@ -490,6 +490,11 @@ def _export(stored, arrays):
     return None
 
 
+def _debugging() -> bool:
+    """Whether a JAX debug option is on (calls then run as JAX runs them)."""
+    return any(getattr(jax.config, o) for o in _DEBUG_OPTIONS)
+
+
 def _on_default_device(leaf) -> bool:
     """False for an array committed to another device than the default one (the
     stored programs run there)."""
@@ -536,13 +541,13 @@ def stored_jit(
 
 
 @contextlib.contextmanager
-def preparing(prepare: Callable[[], None]) -> Iterator[None]:
+def preparing(prepare: Callable[[], None] | None) -> Iterator[None]:
     """Run `prepare` (calls of `stored_jit`'s `prepare`) in a background thread while
     the block runs, and wait for it at the block's end, raising what it raised. On
     two cores the programs a pipeline needs later compile while its first stage
-    runs. With JAX's debug options on (`jax_disable_jit`, `jax_debug_nans`) it
-    does nothing: calls then run op by op."""
-    if any(getattr(jax.config, o) for o in _DEBUG_OPTIONS):
+    runs. With `prepare=None`, or JAX's debug options on (`jax_disable_jit`,
+    `jax_debug_nans`: calls then run op by op), it does nothing."""
+    if prepare is None or _debugging():
         yield
         return
     with ThreadPoolExecutor(1, thread_name_prefix="jaxhyst-prepare") as pool:

@@ -415,7 +415,7 @@ def identify(
     )
     # The block ends after the polish: the analysis waits for its program to be
     # ready rather than compile it a second time.
-    with preparing(prepare_later if device is None else _nothing):
+    with preparing(prepare_later if device is None else None):
         seeds, swarm_result = starting_points(
             space,
             lambda: swarm_problem(problem, stride),
@@ -484,10 +484,6 @@ def identify(
 @stored_jit
 def _simulated(problem: Problem, model: AbstractHysteresisModel):
     return problem.simulated(model)
-
-
-def _nothing() -> None:
-    pass
 
 
 def _prepare_after_search(
