@@ -46,6 +46,7 @@ import hashlib
 import importlib.metadata
 import os
 import pickle
+import platform
 import re
 import sys
 import tempfile
@@ -60,6 +61,7 @@ import equinox as eqx
 import jax
 import numpy as np
 from jax.core import Tracer
+from jax.experimental import serialize_executable
 
 
 _P = ParamSpec("_P")
@@ -214,6 +216,25 @@ def _fixed_environment() -> str:
     )
 
 
+@functools.cache
+def _host_processor() -> str:
+    """The CPU's model and features (XLA:CPU compiles for the host it runs on): a
+    store shared by machines with different processors keeps one executable each."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return f"{platform.machine()}:{platform.processor()}"
+    wanted = ("model name", "flags", "Features", "CPU part")
+    found = sorted({line for line in lines if line.split(":")[0].strip() in wanted})
+    return hashlib.sha256("\n".join(found).encode()).hexdigest()
+
+
+def _compile_environment() -> str:
+    """What compiling depends on beyond the traced program: the XLA flags and the
+    host processor."""
+    return f"XLA_FLAGS={os.environ.get('XLA_FLAGS', '')!r};cpu={_host_processor()}"
+
+
 def _environment() -> str:
     options = [f"{name}={getattr(jax.config, name, None)!r}" for name in _TRACE_OPTIONS]
     eqx_env = [
@@ -229,10 +250,14 @@ class _Slot:
         self.index = index
 
 
-@dataclasses.dataclass(frozen=True)
-class _Program:
-    run: Any  # `jax.jit` of the exported call: array leaves in, arrays out
+class _Program(NamedTuple):
+    run: Any  # the compiled exported call (`jax.stages.Compiled`): arrays in and out
     skeleton: Any  # the output with `_Slot`s where its arrays go
+
+
+class _Exported(NamedTuple):
+    exported: Any  # `jax.export.Exported`: array leaves in, arrays out
+    skeleton: Any
 
 
 class _Keyed(NamedTuple):
@@ -358,53 +383,110 @@ class _StoredJit(Generic[_P, _R]):
         arrays = [leaf for leaf in keyed.leaves if eqx.is_array(leaf)]
 
         def build() -> _Program | None:
-            program = self._load(store, keyed.digest, keyed.key)
+            program = self._load_executable(store, keyed)
             if program is None:
-                program = self._build(
-                    store, keyed.digest, keyed.key, keyed.leaves, keyed.treedef
-                )
-            if program is not None:
-                # Compiled here, so that a thread waiting on the future finds it
-                # compiled (the call's jit reuses this compilation).
-                program.run.lower(*arrays).compile()
+                exported = self._load(store, keyed)
+                if exported is None:
+                    exported = self._build(store, keyed)
+                if exported is None:
+                    return None
+                program = self._compile(store, keyed, exported, arrays)
             return program
 
         program = self._once(self._memo, keyed.digest, build)
         return None if program is None else (program, arrays)
 
-    def _wrap(self, exported) -> Callable[..., Any]:
+    def _load(self, store: Path, keyed: _Keyed) -> "_Exported | None":
+        """The exported program an earlier process wrote, or `None`."""
+        payload = _read(store / f"{keyed.digest}.program")
+        if payload is None:
+            return None
+        stored_key, exported_bytes, skeleton = pickle.loads(payload)
+        if stored_key != keyed.key:
+            return None
+        return _Exported(jax.export.deserialize(bytearray(exported_bytes)), skeleton)
+
+    def _compile(
+        self, store: Path, keyed: _Keyed, found: "_Exported", arrays: list
+    ) -> _Program:
+        """Compile the exported program (here, so that a thread waiting on the
+        future finds it compiled) and keep the executable for later processes."""
+
+        def call(*arrays):
+            return found.exported.call(*arrays)
+
+        # Named after its key, so that JAX's compilation cache, which keys on the
+        # program's text, holds it apart from the same text stored under another
+        # key (an older jaxhyst's): a stored executable is one compiled here.
+        call.__name__ = call.__qualname__ = f"stored_program_{keyed.digest[:16]}"
         # Every input on the default device, committed or not: one compilation
         # (left to itself, jit compiles again for each mix of committed inputs).
         device = jax.sharding.SingleDeviceSharding(jax.devices()[0])
-        return jax.jit(
-            exported.call,
-            in_shardings=device,
-            compiler_options=self._compiler_options,
+        run = jax.jit(
+            call, in_shardings=device, compiler_options=self._compiler_options
+        )
+        hits = _compilation_cache_hits()
+        compiled = run.lower(*arrays).compile()
+        if _compilation_cache_hits() == hits:
+            # Not read back from JAX's compilation cache: XLA:CPU serializes such
+            # an executable without its kernels, and it would fail when run.
+            self._write_executable(store, keyed, compiled, found)
+        return _Program(compiled, found.skeleton)
+
+    def _executable_key(self, key: str) -> str:
+        """`key` plus what compiling depends on beyond tracing."""
+        return "|".join(
+            [key, _compile_environment(), f"options={self._compiler_options!r}"]
         )
 
-    def _load(self, store: Path, digest: str, key: str) -> "_Program | None":
-        path = store / f"{digest}.program"
+    def _load_executable(self, store: Path, keyed: _Keyed) -> "_Program | None":
+        """The executable an earlier process compiled, or `None` (not there,
+        written for another key or processor, or one XLA refuses to load)."""
+        payload = _read(store / f"{keyed.digest}.executable")
+        if payload is None:
+            return None
+        stored_key, serialized, in_tree, out_tree, skeleton, lapack = pickle.loads(
+            payload
+        )
+        if stored_key != self._executable_key(keyed.key):
+            return None
+        if lapack:
+            _initialize_lapack()
         try:
-            data = path.read_bytes()
-        except OSError:  # not there (the usual case), or unreadable: trace it
-            return None
-        if data[: len(_MAGIC)] != _MAGIC:
-            return None
-        payload = data[len(_MAGIC) :]
-        checksum, _, payload = payload.partition(b"\n")
-        if hashlib.sha256(payload).hexdigest().encode() != checksum:
-            return None  # damaged or partly written by an old format: write again
-        stored_key, exported_bytes, skeleton = pickle.loads(payload)
-        if stored_key != key:
-            return None
-        exported = jax.export.deserialize(bytearray(exported_bytes))
-        return _Program(self._wrap(exported), skeleton)
+            compiled = serialize_executable.deserialize_and_load(
+                serialized, in_tree, out_tree
+            )
+        except jax.errors.JaxRuntimeError:
+            return None  # compiled again and written over
+        return _Program(compiled, skeleton)
 
-    def _build(
-        self, store: Path, digest: str, key: str, leaves, treedef
-    ) -> "_Program | None":
+    def _write_executable(
+        self, store: Path, keyed: _Keyed, compiled, found: "_Exported"
+    ) -> None:
+        """Keep `compiled` in the store, where JAX can serialize it."""
+        try:
+            serialized, in_tree, out_tree = serialize_executable.serialize(compiled)
+        except (ValueError, NotImplementedError):
+            return  # JAX cannot serialize it: compiled again by the next process
+        payload = pickle.dumps(
+            (
+                self._executable_key(keyed.key),
+                serialized,
+                in_tree,
+                out_tree,
+                found.skeleton,
+                _uses_lapack(found.exported),
+            )
+        )
+        try:
+            _write(store / f"{keyed.digest}.executable", payload)
+        except OSError:
+            pass  # a full disk, a folder made read-only: run it all the same
+
+    def _build(self, store: Path, keyed: _Keyed) -> "_Exported | None":
         """Trace and export the program, write it to the store and return it; `None`
         if it cannot be stored."""
+        leaves, treedef = keyed.leaves, keyed.treedef
         is_array = [eqx.is_array(leaf) for leaf in leaves]
         static = [None if a else leaf for leaf, a in zip(leaves, is_array)]
         found: dict[str, Any] = {}
@@ -435,12 +517,12 @@ class _StoredJit(Generic[_P, _R]):
             _encode(jax.tree_util.tree_map(lambda s: None, skeleton, is_leaf=_is_slot))
         except _Unpinned:
             return None  # an output pickle could not bring back faithfully
-        payload = pickle.dumps((key, bytes(exported.serialize()), skeleton))
+        payload = pickle.dumps((keyed.key, bytes(exported.serialize()), skeleton))
         try:
-            _write(store / f"{digest}.program", payload)
+            _write(store / f"{keyed.digest}.program", payload)
         except OSError:
             pass  # a full disk, a folder made read-only: run it all the same
-        return _Program(self._wrap(exported), skeleton)
+        return _Exported(exported, skeleton)
 
 
 def _lapack_targets() -> set[str]:
@@ -457,6 +539,48 @@ def _lapack_targets() -> set[str]:
 
 
 _allowed_custom_calls: set[str] = _lapack_targets()
+
+
+_LAPACK_TARGETS = frozenset(_allowed_custom_calls)
+
+
+def _uses_lapack(exported) -> bool:
+    """Whether the exported program calls jaxlib's CPU LAPACK kernels."""
+    called = set(re.findall(r"custom_call @(\w+)", exported.mlir_module()))
+    return bool(called & _LAPACK_TARGETS)
+
+
+@functools.cache
+def _initialize_lapack() -> None:
+    """Point jaxlib's CPU LAPACK kernels at SciPy's LAPACK (about 0.15 s: it imports
+    SciPy's). JAX does this when it lowers a program that uses them; an executable
+    loaded without lowering would otherwise call a null function and crash. The
+    call is the one `jax.export`'s lowering makes (jaxlib has no public name for
+    it; the store's key pins the jaxlib version)."""
+    from jaxlib import lapack
+
+    lapack._lapack.initialize()  # pyright: ignore[reportPrivateImportUsage]
+
+
+_CACHE_HIT = "/jax/compilation_cache/cache_hits"
+_this_thread = threading.local()
+
+
+def _count_cache_hit(event: str, **kwargs) -> None:
+    if event == _CACHE_HIT:
+        _this_thread.cache_hits = getattr(_this_thread, "cache_hits", 0) + 1
+
+
+@functools.cache
+def _listening() -> None:
+    jax.monitoring.register_event_listener(_count_cache_hit)
+
+
+def _compilation_cache_hits() -> int:
+    """How many programs this thread has read from JAX's compilation cache (from
+    the first call on)."""
+    _listening()
+    return getattr(_this_thread, "cache_hits", 0)
 
 
 def _export(stored, arrays):
@@ -513,6 +637,21 @@ def _rebuild(skeleton, outputs):
         skeleton,
         is_leaf=_is_slot,
     )
+
+
+def _read(path: Path) -> bytes | None:
+    """The payload `_write` wrote to `path`, or `None` if the file is not there,
+    cannot be read, or is damaged (then it is built again and written over)."""
+    try:
+        data = path.read_bytes()
+    except OSError:  # not there (the usual case), or unreadable
+        return None
+    if data[: len(_MAGIC)] != _MAGIC:
+        return None
+    checksum, _, payload = data[len(_MAGIC) :].partition(b"\n")
+    if hashlib.sha256(payload).hexdigest().encode() != checksum:
+        return None  # damaged or partly written by an old format
+    return payload
 
 
 def _write(path: Path, payload: bytes) -> None:

@@ -59,8 +59,14 @@ def store(tmp_path, monkeypatch):
     enable_program_store(before)
 
 
-def _files(folder: Path) -> list[Path]:
-    return sorted(folder.glob("*.program")) if folder.exists() else []
+def _files(folder: Path, kind: str = "program") -> list[Path]:
+    return sorted(folder.glob(f"*.{kind}")) if folder.exists() else []
+
+
+def _stored_compiles(compiled: list) -> int:
+    """How many of the compiled programs are stored ones (their `jax.jit` is named
+    `stored_program_<key digest>`)."""
+    return sum(1 for name in compiled if str(name).startswith("jit(stored_program_"))
 
 
 def _model(power=2):
@@ -154,6 +160,8 @@ def test_a_damaged_or_foreign_file_is_traced_again_and_replaced(store):
     good = path.read_bytes()
     for damaged in (good[: len(good) // 2], b"nonsense", good.replace(b"A[", b"B[", 1)):
         path.write_bytes(damaged)
+        for executable in _files(store, "executable"):  # else loaded as it is
+            executable.unlink()
         _stored.__dict__["_memo"] = {}
         jax.clear_caches()
         traces["count"] = 0
@@ -164,6 +172,8 @@ def test_a_damaged_or_foreign_file_is_traced_again_and_replaced(store):
     _stored(_model(3), x, 0.5)
     other = next(p for p in _files(store) if p != path)
     path.write_bytes(other.read_bytes())
+    for executable in _files(store, "executable"):
+        executable.unlink()
     _stored.__dict__["_memo"] = {}
     jax.clear_caches()
     traces["count"] = 0
@@ -183,12 +193,16 @@ _CHILD = textwrap.dedent(
 
     import threading
 
-    traced = []
+    traced, lowered = [], []
     jax.monitoring.register_event_duration_secs_listener(
         lambda event, duration, **kw: traced.append(
             [kw.get("fun_name"), threading.current_thread().name]
         )
         if event == "/jax/core/compile/jaxpr_trace_duration" else None
+    )
+    jax.monitoring.register_event_duration_secs_listener(
+        lambda event, duration, **kw: lowered.append(kw.get("fun_name"))
+        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration" else None
     )
     enable_compilation_cache()
     model = jh.PiezoBoucWen.paper_table4(3)
@@ -204,6 +218,7 @@ _CHILD = textwrap.dedent(
     )
     print(json.dumps({
         "traced": traced,
+        "lowered": lowered,
         "parameters": {k: float(v) for k, v in fit.model.parameters().items()},
     }))
     """
@@ -219,11 +234,21 @@ def _identify_in_child(cache: Path) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def _stored_lowered(child: dict) -> list:
+    return [
+        name for name in child["lowered"] if str(name).startswith("jit(stored_program_")
+    ]
+
+
 def test_a_second_process_identifies_without_tracing_the_fit(tmp_path):
     cache = tmp_path / "cache"
     first = _identify_in_child(cache)
     stored = _files(cache / "programs")
     assert len(stored) >= 3  # the swarm, the polish, the identifiability at least
+    # Each compiled here, so each executable kept beside its program.
+    executables = _files(cache / "programs", "executable")
+    assert [p.stem for p in executables] == [p.stem for p in stored]
+    assert len(_stored_lowered(first)) == len(stored)
     # Traced under the export's jit ("stored_<name>"), which traces them inside it.
     heavy = {"stored__run_chunk", "stored__optimistix_loop", "stored__jacobian"}
     names = [name for name, _ in first["traced"]]
@@ -237,8 +262,61 @@ def test_a_second_process_identifies_without_tracing_the_fit(tmp_path):
     assert threads["stored__jacobian"].startswith("jaxhyst-prepare")
     second = _identify_in_child(cache)
     assert not heavy & {name for name, _ in second["traced"]}, second["traced"]
+    # Not lowered either: the executables are loaded as they are. The polish and
+    # the identifiability call jaxlib's LAPACK kernels, which loading sets up
+    # (else this process would crash in the polish).
+    assert _stored_lowered(second) == [], second["lowered"]
     assert _files(cache / "programs") == stored
     assert second["parameters"] == first["parameters"]
+
+
+def test_an_executable_read_back_from_jax_compilation_cache_is_not_kept(tmp_path):
+    # Without its executables, a process lowers the stored programs again and
+    # JAX's compilation cache serves them; XLA:CPU serializes such an executable
+    # without its kernels, and a third process that loaded it would fail ("Function
+    # ... not found"). It is compiled again by the next process instead.
+    cache = tmp_path / "cache"
+    first = _identify_in_child(cache)
+    for path in _files(cache / "programs", "executable"):
+        path.unlink()
+    second = _identify_in_child(cache)
+    assert _files(cache / "programs", "executable") == []
+    assert len(_stored_lowered(second)) == len(_files(cache / "programs"))
+    third = _identify_in_child(cache)
+    assert first["parameters"] == second["parameters"] == third["parameters"]
+
+
+def test_a_damaged_or_foreign_executable_is_compiled_again_and_replaced(store):
+    x = jnp.ones(3)
+    first = _stored(_model(), x, 0.5)["y"]
+    (path,) = _files(store, "executable")
+    good = path.read_bytes()
+    _stored(_model(3), x, 0.5)
+    other = next(p for p in _files(store, "executable") if p != path).read_bytes()
+    for damaged in (good[: len(good) // 2], b"nonsense", other):
+        path.write_bytes(damaged)
+        _stored.__dict__["_memo"] = {}
+        jax.clear_caches()
+        compiled, listener = _compiled_programs()
+        jax.monitoring.register_event_duration_secs_listener(listener)
+        try:
+            assert _stored(_model(), x, 0.5)["y"] == first
+        finally:
+            jax.monitoring.unregister_event_duration_listener(listener)
+        assert _stored_compiles(compiled) == 1  # from its program, not traced
+        assert path.read_bytes() != damaged
+    # An executable compiled for another processor (or other XLA flags) is not
+    # loaded: its key differs.
+    _stored.__dict__["_memo"] = {}
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("XLA_FLAGS", "--xla_cpu_use_thunk_runtime=true")
+        compiled, listener = _compiled_programs()
+        jax.monitoring.register_event_duration_secs_listener(listener)
+        try:
+            assert _stored(_model(), x, 0.5)["y"] == first
+        finally:
+            jax.monitoring.unregister_event_duration_listener(listener)
+        assert _stored_compiles(compiled) == 1
 
 
 def test_committed_and_uncommitted_inputs_share_one_compiled_program(store):
@@ -257,7 +335,7 @@ def test_committed_and_uncommitted_inputs_share_one_compiled_program(store):
         _stored(_Scaled(jax.device_put(jnp.ones(3), jax.devices()[0]), 2), x, 0.5)
     finally:
         jax.monitoring.unregister_event_duration_listener(listener)
-    assert compiled.count("jit(call)") == 1, compiled
+    assert _stored_compiles(compiled) == 1, compiled
 
 
 def test_a_store_that_cannot_be_written_runs_the_program_all_the_same(store, tmp_path):
@@ -287,13 +365,13 @@ def test_prepare_compiles_without_running_and_a_later_call_reuses_it(store):
         x = jnp.ones(3)
         assert _stored.prepare(_model(), x, 0.5) is None
         assert traces["count"] == 1 and len(_files(store)) == 1
-        assert compiled.count("jit(call)") == 1
+        assert _stored_compiles(compiled) == 1
         out = _stored(_Scaled(jnp.array([3.0, 2.0, 1.0]), 2), 2 * x, 0.5)
     finally:
         jax.monitoring.unregister_event_duration_listener(listener)
     assert float(out["y"]) == 24.5 and out["n"] == 2
     assert traces["count"] == 1  # not traced again
-    assert compiled.count("jit(call)") == 1  # nor compiled again
+    assert _stored_compiles(compiled) == 1  # nor compiled again
 
 
 _gate = {"inside": threading.Event(), "release": threading.Event()}

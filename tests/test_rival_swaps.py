@@ -222,3 +222,59 @@ def test_a_replacement_supersedes_what_was_said_of_it_before(monkeypatch):
     assert "cannot tell whether asymmetry is present" not in statements
     assert "within the resolution" in statements[-1]
     assert [c.separates for c in state.contrasts] == [("pinching",)]
+
+
+def _swap_setup(trial_model):
+    """A state with asymmetry adopted, and drift's trial from before it (fitted with
+    the base parameters free and `trial_model`'s other values)."""
+    adopted = FAMILY.effect("asymmetry")
+    drift = FAMILY.effect("drift")
+    current = MODEL.replace(yield_skew=0.1, stiffness_skew=0.05, k=11.0)
+    trial = engine._Trial(
+        jh.Score("drift", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
+        trial_model,
+        np.full(4, 7.0),
+        validation(),
+        free=(*FAMILY.base_free, *drift.parameters),
+    )
+    state = engine._State(
+        current=current,
+        predicted=np.zeros(4),
+        free=(*FAMILY.base_free, *adopted.parameters),
+        findings=(_finding("asymmetry"),),
+        passed_trials={"drift": (trial, {})},
+    )
+    ctx = types.SimpleNamespace(family=FAMILY, key=jax.random.key(0))
+    return ctx, state, adopted, trial
+
+
+def test_a_rival_whose_trial_fitted_the_same_model_is_not_refitted(monkeypatch):
+    refits = []
+
+    def refit(ctx, state, start, names, **_):
+        refits.append(names)
+        return start
+
+    monkeypatch.setattr(engine, "_refit", refit)
+    monkeypatch.setattr(engine, "_predict", lambda ctx, model: np.zeros(4))
+    # Drift was tried with the base parameters free and asymmetry off, which is
+    # what swapping it in for asymmetry fits: its trial is the swap.
+    fitted = MODEL.replace(k=9.0, offset=0.3, trend=0.01)
+    ctx, state, adopted, trial = _swap_setup(fitted)
+    names, swapped, predicted = engine._swapped_in(ctx, state, 0, adopted, "drift")  # pyright: ignore[reportArgumentType]
+    assert refits == []
+    assert swapped is trial.model
+    np.testing.assert_array_equal(predicted, trial.predicted)
+    assert set(names) == set(trial.free)
+    # A value the refit holds fixed differs (a pinching shape, set since the trial):
+    # another model, refitted.
+    ctx, state, adopted, trial = _swap_setup(fitted)
+    state = dataclasses.replace(state, current=state.current.replace(pinch_width=0.7))
+    engine._swapped_in(ctx, state, 0, adopted, "drift")  # pyright: ignore[reportArgumentType]
+    assert len(refits) == 1
+    # So do other free parameters (the trial's dependents, or another base).
+    ctx, state, adopted, trial = _swap_setup(fitted)
+    trial = dataclasses.replace(trial, free=(*trial.free, "pinch"))
+    state = dataclasses.replace(state, passed_trials={"drift": (trial, {})})
+    engine._swapped_in(ctx, state, 0, adopted, "drift")  # pyright: ignore[reportArgumentType]
+    assert len(refits) == 2

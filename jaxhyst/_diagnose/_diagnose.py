@@ -106,6 +106,8 @@ class _Trial(eqx.Module):
     # True when two independent candidates that failed alone were refitted as a
     # pair (`_jointly`), False for an effect and what it `needs`.
     joint: bool = False
+    # The parameters the refit fitted (the others held where `start` had them).
+    free: tuple[str, ...] = ()
 
 
 class _State(eqx.Module):
@@ -665,7 +667,9 @@ def _trial(
     score = dataclasses.replace(
         score, validation=validation, rejection=rejection, together=together
     )
-    return _Trial(score, refitted, new_pred, validation, null, together)
+    return _Trial(
+        score, refitted, new_pred, validation, null, together, free=tuple(names)
+    )
 
 
 def _with_dependents(
@@ -1232,6 +1236,8 @@ def _swapped_in(
     if name in state.passed_trials:
         trial, _ = state.passed_trials[name]
         start = alternative.take_from(without, trial.model)
+        if _fitted_already(trial, start, names):
+            return names, trial.model, trial.predicted
     else:
         scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
         start, _ = _best_start(
@@ -1242,6 +1248,19 @@ def _swapped_in(
     )
     swapped = _refit(ctx, state, start, names, max_steps=20, key=key)
     return names, swapped, _predict(ctx, swapped)
+
+
+def _fitted_already(trial: _Trial, start, names: tuple[str, ...]) -> bool:
+    """Whether `trial` refitted the very model that a refit of `names` from `start`
+    fits: the same free parameters, and every other value the same (a rival tried
+    when the other findings were what they are now). Its refit is then the rival's
+    swap, and is not done again."""
+    if set(trial.free) != set(names) or type(trial.model) is not type(start):
+        return False
+    fitted = trial.model.parameters()
+    return bool(
+        eqx.tree_equal(start.replace(**{p: fitted[p] for p in names}), trial.model)
+    )
 
 
 class _Swap(eqx.Module):
