@@ -94,8 +94,9 @@ def enable_compilation_cache() -> Path | None:
 
     It also turns on jaxhyst's program store (`programs/` inside the folder): the
     traced programs of the swarm, the polish, the identifiability analysis and the
-    diagnosis's refits, exported with `jax.export`, so that a later process skips
-    tracing them as well as compiling them. A stored program is found by a key that
+    diagnosis's refits, exported with `jax.export` and compiled for this machine's
+    processor, so that a later process loads them without tracing, lowering or
+    compiling them. A stored program is found by a key that
     fixes everything its tracing depends on (the argument shapes, dtypes and
     non-array values, jaxhyst's source, the versions of JAX, jaxlib, equinox,
     optimistix, lineax, optax, NumPy and Python, the backend and the JAX options

@@ -11,6 +11,16 @@ the store; a later call with the same structure, in this process or another, rea
 it back and runs it without tracing. The export is what runs in both cases, so a
 warm run computes with the same program as the cold run that wrote it.
 
+Beside each program the store keeps its compiled executable (`.executable`,
+`jax.experimental.serialize_executable`), keyed further by the XLA flags, the
+compiler options and the host processor's model and features (XLA:CPU compiles for
+the processor it runs on): a later process on the same machine loads it as it is,
+skipping the lowering and the compilation-cache lookup as well. Only an executable
+XLA compiled in this process is kept: one that JAX's compilation cache handed back
+(a program compiled under the same text before, with its executable since lost)
+does not serialize faithfully on XLA:CPU (its kernels are missing when it runs), so
+such a program is compiled through its export again by the next process instead.
+
 A stored program is found by a key that fixes everything tracing depends on:
 the function (module and qualified name), the shapes, dtypes and positions of the
 array arguments, every other argument's value (numbers, strings, tuples, `eqx.Module`
