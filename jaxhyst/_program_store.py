@@ -62,6 +62,7 @@ import sys
 import tempfile
 import threading
 import types
+import weakref
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
@@ -304,6 +305,7 @@ class _StoredJit(Generic[_P, _R]):
         self._prepared: dict[str, Future[None]] = {}
         self._lock = threading.Lock()
         functools.update_wrapper(self, fn)
+        _instances.add(self)
 
     def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
         found = self._stored_program(args, kwargs)
@@ -676,6 +678,18 @@ def _write(path: Path, payload: bytes) -> None:
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+_instances: "weakref.WeakSet[_StoredJit]" = weakref.WeakSet()
+
+
+def forget_loaded_programs() -> None:
+    """Let go of the executables `stored_jit` holds in this process (JAX's caches,
+    which `jax.clear_caches` empties, do not hold them); the next call loads its
+    program from the store again. `release_if_near_map_limit` calls it."""
+    for function in list(_instances):
+        with function._lock:
+            function._memo.clear()
 
 
 def stored_jit(

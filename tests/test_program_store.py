@@ -482,3 +482,22 @@ def test_identify_compiles_its_polish_during_the_swarm_with_the_store_off():
         threads = [thread for fun, thread in traced if fun == name]
         assert len(threads) == 1, traced
         assert threads[0].startswith("jaxhyst-prepare"), traced
+
+
+def test_near_the_memory_map_limit_the_loaded_executables_are_let_go(
+    store, monkeypatch
+):
+    from jaxhyst import _memory_maps
+
+    if _memory_maps.memory_maps() is None:
+        pytest.skip("this system does not report its memory maps (/proc)")
+    x = jnp.ones(3)
+    first = _stored(_model(), x, 0.5)["y"]
+    assert _stored._memo  # the loaded executable, which jax.clear_caches keeps
+    monkeypatch.setattr(_memory_maps, "RELEASE_AT", 0.0)
+    with pytest.warns(RuntimeWarning, match=r"vm\.max_map_count"):
+        assert _memory_maps.release_if_near_map_limit("diagnose")
+    assert not _stored._memo
+    traces["count"] = 0
+    assert _stored(_model(), x, 0.5)["y"] == first  # loaded from the store again
+    assert traces["count"] == 0
