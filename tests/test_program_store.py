@@ -297,26 +297,32 @@ def test_a_damaged_or_foreign_executable_is_compiled_again_and_replaced(store):
         path.write_bytes(damaged)
         _stored.__dict__["_memo"] = {}
         jax.clear_caches()
-        compiled, listener = _compiled_programs()
-        jax.monitoring.register_event_duration_secs_listener(listener)
-        try:
-            assert _stored(_model(), x, 0.5)["y"] == first
-        finally:
-            jax.monitoring.unregister_event_duration_listener(listener)
-        assert _stored_compiles(compiled) == 1  # from its program, not traced
+        # Compiled from its program (not traced again), and written over.
+        assert _result_and_compiles(lambda: _stored(_model(), x, 0.5)["y"]) == (
+            first,
+            1,
+        )
         assert path.read_bytes() != damaged
     # An executable compiled for another processor (or other XLA flags) is not
     # loaded: its key differs.
     _stored.__dict__["_memo"] = {}
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("XLA_FLAGS", "--xla_cpu_use_thunk_runtime=true")
-        compiled, listener = _compiled_programs()
-        jax.monitoring.register_event_duration_secs_listener(listener)
-        try:
-            assert _stored(_model(), x, 0.5)["y"] == first
-        finally:
-            jax.monitoring.unregister_event_duration_listener(listener)
-        assert _stored_compiles(compiled) == 1
+        assert _result_and_compiles(lambda: _stored(_model(), x, 0.5)["y"]) == (
+            first,
+            1,
+        )
+
+
+def _result_and_compiles(call):
+    """`call()`'s result, and how many stored programs it compiled."""
+    compiled, listener = _compiled_programs()
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        result = call()
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    return result, _stored_compiles(compiled)
 
 
 def test_committed_and_uncommitted_inputs_share_one_compiled_program(store):
