@@ -297,11 +297,13 @@ def test_a_damaged_or_foreign_executable_is_compiled_again_and_replaced(store):
         path.write_bytes(damaged)
         _stored.__dict__["_memo"] = {}
         jax.clear_caches()
+        traces["count"] = 0
         # Compiled from its program (not traced again), and written over.
         assert _result_and_compiles(lambda: _stored(_model(), x, 0.5)["y"]) == (
             first,
             1,
         )
+        assert traces["count"] == 0
         assert path.read_bytes() != damaged
     # An executable compiled for another processor (or other XLA flags) is not
     # loaded: its key differs.
