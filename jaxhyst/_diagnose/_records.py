@@ -8,6 +8,8 @@ recordings, shorter ones padded and the padding dropped), so no state carries
 over from the end of one test to the start of the next.
 """
 
+from collections.abc import Sequence
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -15,7 +17,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._identification._identifiability import output_jacobian
-from .._identification._problem import stack_inputs
+from .._identification._problem import RecordSimulation, stack_inputs
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
 from .._program_store import stored_jit
@@ -40,6 +42,18 @@ class StackedSimulation(eqx.Module):
 @stored_jit
 def _simulated(simulation, model):
     return simulation(model)
+
+
+# How many models of one structure `predict_each` simulates in one program: one
+# sequential simulation leaves the 2-core CPU's vector units mostly idle, and 8
+# side by side took 11-16 ms per model on a 45 000-sample piezo record against
+# 48-85 ms one at a time (16 were no faster per model).
+BATCH = 8
+
+
+@stored_jit
+def _simulated_batch(simulation, models):
+    return eqx.filter_vmap(simulation)(models)
 
 
 class DiagnosisRecords(eqx.Module):
@@ -122,6 +136,38 @@ class DiagnosisRecords(eqx.Module):
         if self.valid is None:
             return predict(model, self.inputs, solver)
         return self.flat(_simulated(StackedSimulation(self.inputs, solver), model))
+
+    def predict_each(
+        self,
+        models: Sequence[AbstractHysteresisModel],
+        solver: AbstractSimulationSolver,
+    ) -> list[np.ndarray]:
+        """`predict` of each of `models`, in order: those of one structure (the same
+        class and static fields) simulated `BATCH` at a time in one program, a
+        short batch padded with copies of its last model (a lone model runs as
+        `predict`)."""
+        simulation = (
+            RecordSimulation(self.inputs, solver)
+            if self.valid is None
+            else StackedSimulation(self.inputs, solver)
+        )
+        groups: dict[object, list[int]] = {}
+        for index, model in enumerate(models):
+            groups.setdefault(jax.tree.structure(model), []).append(index)
+        predicted: list[np.ndarray] = [np.empty(0)] * len(models)
+        for indices in groups.values():
+            for first in range(0, len(indices), BATCH):
+                chunk = indices[first : first + BATCH]
+                if len(chunk) == 1:  # a batch would cost more than it saves
+                    predicted[chunk[0]] = self.predict(models[chunk[0]], solver)
+                    continue
+                rows = [models[i] for i in chunk]
+                rows += [rows[-1]] * (BATCH - len(rows))
+                stacked = jax.tree.map(lambda *leaves: jnp.stack(leaves), *rows)
+                outputs = np.asarray(_simulated_batch(simulation, stacked))
+                for row, index in enumerate(chunk):
+                    predicted[index] = self.flat(outputs[row])
+        return predicted
 
     def jacobian(
         self, model: AbstractHysteresisModel, names, solver: AbstractSimulationSolver
