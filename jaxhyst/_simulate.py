@@ -127,7 +127,7 @@ class RK4(AbstractSimulationSolver):
         i)` advances over sample intervals [i*k, (i+1)*k) and returns the new carry
         and the (k, s) states at samples i*k+1 .. (i+1)*k (by Hermite interpolation
         inside the step; samples past the record's end are extrapolated, mask them)."""
-        if model.sample_update(inputs) is not None:
+        if model.has_sample_update(inputs):
             raise ValueError(
                 f"RK4(samples_per_step={self.samples_per_step}) cannot integrate "
                 f"{type(model).__name__} in this configuration: part of it is "
@@ -205,7 +205,7 @@ class DiffraxSolver(AbstractSimulationSolver):
     def states(self, model, inputs, initial_state):
         import diffrax
 
-        if model.sample_update(inputs) is not None:
+        if model.has_sample_update(inputs):
             raise ValueError(
                 f"DiffraxSolver cannot integrate {type(model).__name__} in this "
                 "configuration: part of it is propagated exactly once per sample "

@@ -1,4 +1,5 @@
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -183,3 +184,28 @@ def test_extended_stage_hold_matches_finely_integrated_stage(rate, frequency, da
     assert float(jnp.max(jnp.abs(a - quasi_static)) / jnp.max(jnp.abs(b))) > 1e-3
     with pytest.raises(ValueError, match="only RK4 applies"):
         jh.simulate(held, path, jh.DiffraxSolver())
+
+
+def test_asking_whether_a_stage_updates_per_sample_compiles_nothing():
+    """Refits and the swarm's objective ask `has_sample_update` outside `jit`: for a
+    stage it must not build the hold map (its matrix exponential compiled on its
+    own took 0.66 s of a warm diagnosis), and it agrees with `sample_update`."""
+    from helpers import multisine_path
+
+    path = multisine_path(rate=1000.0, duration=0.5)
+    quasi_static = jh.ExtendedPiezo.around(piezo_model(), path)
+    stage = quasi_static.with_dynamics(40.0, 0.1)
+    lowered = []
+
+    def listener(event, duration, **kwargs):
+        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration":
+            lowered.append(kwargs.get("fun_name"))
+
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        answers = [m.has_sample_update(path) for m in (quasi_static, stage)]
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert answers == [False, True]
+    assert lowered == []
+    assert [m.sample_update(path) is not None for m in (quasi_static, stage)] == answers

@@ -114,7 +114,7 @@ def refit(
     if (
         key is not None
         and settings.swarm is not None
-        and model.sample_update(one_record) is None
+        and not model.has_sample_update(one_record)
     ):
         coarse_stride = max(1, length // 2000)
         coarse = decimated(problem, max(1, coarse_stride // stride))

@@ -218,7 +218,7 @@ def swarm_problem(problem: Problem, stride: int) -> Problem:
         isinstance(solver, RK4)
         and solver.substeps == 1
         and solver.samples_per_step == 1
-        and problem.space.template.sample_update(one_record) is None
+        and not problem.space.template.has_sample_update(one_record)
     ):
         return eqx.tree_at(lambda p: p.solver, problem, RK4(samples_per_step=stride))
     return decimated(problem, stride)

@@ -222,6 +222,11 @@ class AbstractHysteresisModel(eqx.Module):
         """
         return None
 
+    def has_sample_update(self, inputs: InputPath) -> bool:
+        """Whether `sample_update(inputs)` gives a map. Override it where building
+        the map computes (outside `jit`, each such computation compiles)."""
+        return self.sample_update(inputs) is not None
+
     def held_at_zero(self, names: Collection[str]) -> Self:
         """This model with the parameters `names` (each at zero) held there: the
         terms they scale are left out of its equations at trace time, which makes a

@@ -311,6 +311,10 @@ class ExtendedPiezo(AbstractGainHoldingModel):
 
         return update
 
+    def has_sample_update(self, inputs):
+        # Without building the hold map (its matrix exponential).
+        return self.dynamic
+
     def output(self, t, state, drive):
         if self.dynamic:
             response = state[4]
