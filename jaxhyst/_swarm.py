@@ -27,6 +27,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int, PRNGKeyArray
 
+from ._arrays import device_array
 from ._program_store import stored_jit
 from ._status import RESULTS, raise_unless_successful
 
@@ -57,7 +58,7 @@ def _default_float():
 
 
 def _coefficient(x):
-    return jnp.asarray(x, dtype=_default_float())
+    return device_array(x, _default_float())
 
 
 def _concrete(x) -> np.ndarray | None:
@@ -705,7 +706,7 @@ def run_swarm(
         monitor = _Monitor(
             reference=state.gbest_fitness, last_improvement=jnp.zeros((), jnp.int32)
         )
-        target_array = jnp.asarray(-np.inf if target is None else target, dtype)
+        target_array = device_array(-np.inf if target is None else target, dtype)
         stall_array = jnp.asarray(
             _NEVER if stall_iterations is None else stall_iterations, jnp.int32
         )

@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
+from .._arrays import device_array
 from .._memory_maps import release_if_near_map_limit
 from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel, DataScales
@@ -395,7 +396,7 @@ def identify(
     if space is None:
         space = ParameterSpace.default(model, joint_scales(records), gauge=gauge)
     per_record = [
-        Problem(space, r.input_path(), jnp.asarray(r.y), solver, w, stable_only)
+        Problem(space, r.input_path(), device_array(r.y), solver, w, stable_only)
         for r, w in zip(records, _weights(weights, records))
     ]
     problem = per_record[0] if len(records) == 1 else stack_problems(per_record)

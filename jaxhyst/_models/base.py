@@ -15,8 +15,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.core import Tracer
 from jaxtyping import Array, ArrayLike, Float, Int
 
+from .._arrays import device_array
 from .._inputs import InputPath
 from .._recording import Recording
 from .._smoothing import AbstractSmoothing, ExactSign
@@ -29,10 +31,11 @@ def as_parameter(value: ArrayLike) -> Array:
     Model parameters are declared `eqx.field(converter=as_parameter)`: stored as
     arrays, so changing their values never recompiles, while the constructor (and a
     type checker) accepts floats."""
-    array = jnp.asarray(value)
+    # Host values stay on the host until `device_array` (which compiles nothing).
+    array = value if isinstance(value, (jax.Array, Tracer)) else np.asarray(value)
     if not jnp.issubdtype(array.dtype, jnp.inexact):
         array = array.astype(jnp.result_type(float))
-    return jnp.asarray(array, dtype=array.dtype)
+    return device_array(array, array.dtype)
 
 
 def smoothing_field():
