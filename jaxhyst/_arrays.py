@@ -1,5 +1,7 @@
 """JAX arrays made from host values without compiling anything."""
 
+from collections.abc import Sequence
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -7,7 +9,7 @@ from jax.core import Tracer
 from jaxtyping import Array, ArrayLike
 
 
-def device_array(value: ArrayLike, dtype=None) -> Array:
+def device_array(value: ArrayLike | Sequence[float | bool], dtype=None) -> Array:
     """`jnp.asarray(value, dtype)`, except that a host value (Python numbers, lists
     of them, NumPy arrays) is converted by NumPy and transferred: `jnp.asarray`
     compiles a small program for each new shape and dtype it converts, about 10 ms
