@@ -266,10 +266,19 @@ def test_a_rival_whose_trial_fitted_the_same_model_is_not_refitted(monkeypatch):
     assert swapped is trial.model
     np.testing.assert_array_equal(predicted, trial.predicted)
     assert set(names) == set(trial.free)
-    # A value the refit holds fixed differs (a pinching shape, set since the trial):
-    # another model, refitted.
+    # A shape parameter of an effect that is off in both (a pinching width set
+    # since the trial, pinching switched off) moves nothing: the same model.
     ctx, state, adopted, trial = _swap_setup(fitted)
     state = dataclasses.replace(state, current=state.current.replace(pinch_width=0.7))
+    _, swapped, _ = engine._swapped_in(ctx, state, 0, adopted, "drift")  # pyright: ignore[reportArgumentType]
+    assert refits == []
+    assert swapped is trial.model
+    # A value the refit holds fixed differs (the same width, with pinching on in
+    # both): another model, refitted.
+    ctx, state, adopted, trial = _swap_setup(fitted.replace(pinch=0.2))
+    state = dataclasses.replace(
+        state, current=state.current.replace(pinch=0.2, pinch_width=0.7)
+    )
     engine._swapped_in(ctx, state, 0, adopted, "drift")  # pyright: ignore[reportArgumentType]
     assert len(refits) == 1
     # So do other free parameters (the trial's dependents, or another base).

@@ -1261,7 +1261,7 @@ def _swapped_in(
     if name in state.passed_trials:
         trial, _ = state.passed_trials[name]
         start = alternative.take_from(without, trial.model)
-        if _fitted_already(trial, start, names):
+        if _fitted_already(family, trial, start, names):
             return names, trial.model, trial.predicted
     else:
         scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
@@ -1275,17 +1275,28 @@ def _swapped_in(
     return names, swapped, _predict(ctx, swapped)
 
 
-def _fitted_already(trial: _Trial, start, names: tuple[str, ...]) -> bool:
+def _fitted_already(
+    family: AbstractFamily, trial: _Trial, start, names: tuple[str, ...]
+) -> bool:
     """Whether `trial` refitted the very model that a refit of `names` from `start`
     fits: the same free parameters, and every other value the same (a rival tried
-    when the other findings were what they are now). Its refit is then the rival's
+    when the other findings were what they are now), but for the shape parameters
+    of effects that are off in both (inert: a refit holds their gains at zero, so
+    their terms are not even computed; e.g. the time constant of an input network
+    adopted since, switched off again for the swap). Its refit is then the rival's
     swap, and is not done again."""
     if set(trial.free) != set(names) or type(trial.model) is not type(start):
         return False
     fitted = trial.model.parameters()
-    return bool(
-        eqx.tree_equal(start.replace(**{p: fitted[p] for p in names}), trial.model)
-    )
+    swap = start.replace(**{p: fitted[p] for p in names})
+    inert = [
+        p
+        for effect in family.catalogue
+        if not effect.is_on(swap) and not effect.is_on(trial.model)
+        for p in effect.shape_parameters
+    ]
+    swap = swap.replace(**{p: fitted[p] for p in inert})
+    return bool(eqx.tree_equal(swap, trial.model))
 
 
 class _Swap(eqx.Module):
