@@ -1,8 +1,10 @@
 """Shared test fixtures: the paper's input on a uniform grid, typical parameters, and
 records for tests that stand in the diagnosis's refits."""
 
+from collections.abc import Callable
 from typing import Any
 
+import jax
 import numpy as np
 
 import jaxhyst as jh
@@ -49,3 +51,20 @@ def validation(
         log10_p=-1.0,
         accepted=accepted,
     )
+
+
+def lowered_while(call: Callable[[], Any]) -> tuple[Any, list[str]]:
+    """`call()`'s result, and the names of the programs JAX lowered (compiled, or
+    looked up in the compilation cache) meanwhile, eager operations included."""
+    lowered: list[str] = []
+
+    def listener(event, duration, **kwargs):
+        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration":
+            lowered.append(kwargs.get("fun_name"))
+
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        result = call()
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    return result, lowered

@@ -6,24 +6,10 @@ cost about 10 ms there."""
 import jax
 import jax.numpy as jnp
 import numpy as np
+from helpers import lowered_while
 
 import jaxhyst as jh
 from jaxhyst._arrays import device_array
-
-
-def _lowered_while(build):
-    lowered = []
-
-    def listener(event, duration, **kwargs):
-        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration":
-            lowered.append(kwargs.get("fun_name"))
-
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
-        built = build()
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
-    return built, lowered
 
 
 def test_host_values_become_arrays_without_compiling():
@@ -39,7 +25,7 @@ def test_host_values_become_arrays_without_compiling():
         )
         return path, model, swarm, space
 
-    (path, model, swarm, space), lowered = _lowered_while(build)
+    (path, model, swarm, space), lowered = lowered_while(build)
     assert lowered == []
     np.testing.assert_array_equal(path.values, values)
     for array in (path.values, path.dt, model.k1, model.A1, swarm.c1, space.lower):

@@ -1,9 +1,8 @@
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import piezo_model
+from helpers import lowered_while, piezo_model
 
 import jaxhyst as jh
 
@@ -195,17 +194,9 @@ def test_asking_whether_a_stage_updates_per_sample_compiles_nothing():
     path = multisine_path(rate=1000.0, duration=0.5)
     quasi_static = jh.ExtendedPiezo.around(piezo_model(), path)
     stage = quasi_static.with_dynamics(40.0, 0.1)
-    lowered = []
-
-    def listener(event, duration, **kwargs):
-        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration":
-            lowered.append(kwargs.get("fun_name"))
-
-    jax.monitoring.register_event_duration_secs_listener(listener)
-    try:
-        answers = [m.has_sample_update(path) for m in (quasi_static, stage)]
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listener)
+    answers, lowered = lowered_while(
+        lambda: [m.has_sample_update(path) for m in (quasi_static, stage)]
+    )
     assert answers == [False, True]
     assert lowered == []
     assert [m.sample_update(path) is not None for m in (quasi_static, stage)] == answers
