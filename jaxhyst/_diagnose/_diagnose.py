@@ -222,10 +222,9 @@ def _predict_each(ctx: _Context, models: list) -> list[np.ndarray]:
     batch's own compilation (1.1 s) within a group. Fewer run one by one through
     the one program all predictions share."""
     held = [model.held_at_zero(idle_gains(ctx.family, model, ())) for model in models]
-    sizes = collections.Counter(jax.tree.structure(model) for model in held)
-    batched = [
-        i for i, one in enumerate(held) if sizes[jax.tree.structure(one)] > BATCH
-    ]
+    structures = [jax.tree.structure(model) for model in held]
+    sizes = collections.Counter(structures)
+    batched = [i for i, one in enumerate(structures) if sizes[one] > BATCH]
     predicted = dict(
         zip(batched, ctx.records.predict_each([held[i] for i in batched], ctx.solver))
     )

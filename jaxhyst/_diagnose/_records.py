@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from .._arrays import device_array
 from .._identification._identifiability import output_jacobian
 from .._identification._problem import RecordSimulation, stack_inputs
 from .._inputs import InputPath
@@ -163,7 +164,13 @@ class DiagnosisRecords(eqx.Module):
                     continue
                 rows = [models[i] for i in chunk]
                 rows += [rows[-1]] * (BATCH - len(rows))
-                stacked = jax.tree.map(lambda *leaves: jnp.stack(leaves), *rows)
+                # Stacked on the host: `jnp.stack` would compile a program per shape.
+                stacked = jax.tree.map(
+                    lambda *leaves: device_array(
+                        np.stack([np.asarray(x) for x in leaves])
+                    ),
+                    *rows,
+                )
                 outputs = np.asarray(_simulated_batch(simulation, stacked))
                 for row, index in enumerate(chunk):
                     predicted[index] = self.flat(outputs[row])
