@@ -41,6 +41,13 @@ off), so that a pipeline compiles its later stages in a background thread
 identifiability during the swarm. A call that arrives while another thread builds
 its program waits for it instead of building it again.
 
+`prefetching` loads executables ahead of the calls that need them: in a block, the
+first stored program names a list (kept in the store, `prefetch/`) of the programs
+the last block that began with it used, in order, and a background thread loads
+them while the block computes (loading releases Python's lock). The CLI runs each
+command in such a block, so a command run a second time finds most of its programs
+loaded when it asks for them.
+
 Files are written to a temporary name and renamed, so two processes sharing the
 folder never read a half-written program; each file carries a checksum and its full
 key, and one that does not match is traced again and written over. The store holds
@@ -396,6 +403,7 @@ class _StoredJit(Generic[_P, _R]):
         arrays = [leaf for leaf in keyed.leaves if eqx.is_array(leaf)]
 
         def build() -> _Program | None:
+            _noted(keyed.digest)
             program = self._load_executable(store, keyed)
             if program is None:
                 exported = self._load(store, keyed)
@@ -454,24 +462,16 @@ class _StoredJit(Generic[_P, _R]):
 
     def _load_executable(self, store: Path, keyed: _Keyed) -> "_Program | None":
         """The executable an earlier process compiled, or `None` (not there,
-        written for another key or processor, or one XLA refuses to load)."""
-        payload = _read(store / f"{keyed.digest}.executable")
-        if payload is None:
+        written for another key or processor, or one XLA refuses to load); the
+        prefetching thread's copy where it has (or is) loading it."""
+        expected = self._executable_key(keyed.key)
+        loaded = _prefetched(keyed.digest)
+        if loaded is _NOT_PREFETCHED:
+            path = store / f"{keyed.digest}.executable"
+            loaded = _read_executable(path, lambda key: key == expected)
+        if loaded is None or loaded.key != expected:
             return None
-        stored_key, serialized, in_tree, out_tree, skeleton, lapack = pickle.loads(
-            payload
-        )
-        if stored_key != self._executable_key(keyed.key):
-            return None
-        if lapack:
-            _initialize_lapack()
-        try:
-            compiled = serialize_executable.deserialize_and_load(
-                zlib.decompress(serialized), in_tree, out_tree
-            )
-        except jax.errors.JaxRuntimeError:
-            return None  # compiled again and written over
-        return _Program(compiled, skeleton)
+        return loaded.program
 
     def _write_executable(
         self, store: Path, keyed: _Keyed, compiled, found: "_Exported"
@@ -539,6 +539,34 @@ class _StoredJit(Generic[_P, _R]):
         return _Exported(exported, skeleton)
 
 
+class _LoadedExecutable(NamedTuple):
+    key: str  # the executable key it was written under (`_executable_key`)
+    program: _Program
+
+
+def _read_executable(
+    path: Path, wanted: Callable[[str], bool]
+) -> "_LoadedExecutable | None":
+    """The executable in `path` and the key it was written under, or `None` (not
+    there, damaged, written under a key `wanted` refuses, or one XLA refuses to
+    load)."""
+    payload = _read(path)
+    if payload is None:
+        return None
+    stored_key, serialized, in_tree, out_tree, skeleton, lapack = pickle.loads(payload)
+    if not wanted(stored_key):
+        return None
+    if lapack:
+        _initialize_lapack()
+    try:
+        compiled = serialize_executable.deserialize_and_load(
+            zlib.decompress(serialized), in_tree, out_tree
+        )
+    except jax.errors.JaxRuntimeError:
+        return None  # compiled again and written over
+    return _LoadedExecutable(stored_key, _Program(compiled, skeleton))
+
+
 def _lapack_targets() -> set[str]:
     """jaxlib's CPU LAPACK kernels (linear solves, QR): allowed from the start, so
     that a program using them is not lowered twice to learn their names."""
@@ -563,16 +591,24 @@ def _uses_lapack(exported) -> bool:
     return bool(called & _LAPACK_TARGETS)
 
 
-@functools.cache
+_lapack_lock = threading.Lock()
+_lapack_ready = False
+
+
 def _initialize_lapack() -> None:
     """Point jaxlib's CPU LAPACK kernels at SciPy's LAPACK (about 0.15 s: it imports
-    SciPy's). JAX does this when it lowers a program that uses them; an executable
-    loaded without lowering would otherwise call a null function and crash. The
-    call is the one `jax.export`'s lowering makes (jaxlib has no public name for
-    it; the store's key pins the jaxlib version)."""
-    from jaxlib import lapack
+    SciPy's), once per process, whichever thread asks first. JAX does this when it
+    lowers a program that uses them; an executable loaded without lowering would
+    otherwise call a null function and crash. The call is the one `jax.export`'s
+    lowering makes (jaxlib has no public name for it; the store's key pins the
+    jaxlib version)."""
+    global _lapack_ready
+    with _lapack_lock:
+        if not _lapack_ready:
+            from jaxlib import lapack
 
-    lapack._lapack.initialize()  # pyright: ignore[reportPrivateImportUsage]
+            lapack._lapack.initialize()  # pyright: ignore[reportPrivateImportUsage]
+            _lapack_ready = True
 
 
 _CACHE_HIT = "/jax/compilation_cache/cache_hits"
@@ -686,11 +722,158 @@ _instances: "weakref.WeakSet[_StoredJit]" = weakref.WeakSet()
 
 def forget_loaded_programs() -> None:
     """Let go of the executables `stored_jit` holds in this process (JAX's caches,
-    which `jax.clear_caches` empties, do not hold them); the next call loads its
-    program from the store again. `release_if_near_map_limit` calls it."""
+    which `jax.clear_caches` empties, do not hold them), the prefetched ones
+    included; the next call loads its program from the store again.
+    `release_if_near_map_limit` calls it."""
     for function in list(_instances):
         with function._lock:
             function._memo.clear()
+    run = _prefetch
+    if run is not None:
+        run.forget()
+
+
+# The most programs a prefetch list names (a diagnosis of a long real test uses
+# about 120).
+_PREFETCH_LIMIT = 1000
+_NOT_PREFETCHED: Any = object()
+
+
+class _Prefetch:
+    """One `prefetching` block: the programs it used, in the order it first asked
+    for them, and the thread loading, ahead of the calls, those the last block that
+    began with the same program used."""
+
+    def __init__(self, store: Path):
+        self.store = store
+        self.lock = threading.Lock()
+        self.used: list[str] = []
+        # Executables loaded (or being loaded) by the thread, not yet asked for.
+        self.loaded: dict[str, Future] = {}
+        # Digests a call or the thread has taken: the thread skips them.
+        self.taken: set[str] = set()
+        self.stop = threading.Event()
+        self.thread: threading.Thread | None = None
+        self.served = 0  # calls that found their executable loaded by the thread
+
+    def list_path(self, first: str) -> Path:
+        return self.store / "prefetch" / f"{first}.list"
+
+    def note(self, digest: str) -> None:
+        """A call asked for the program `digest`; the block's first such call
+        starts the thread on the list the last block begun by it left."""
+        with self.lock:
+            if digest in self.used:
+                return
+            self.used.append(digest)
+            if len(self.used) > 1:
+                return
+        listed = _read(self.list_path(digest))
+        if listed is None:
+            return
+        digests = listed.decode().split()
+        if not digests or digests[0] != digest:
+            return
+        self.thread = threading.Thread(
+            target=self._load_ahead,
+            args=(digests[1:],),
+            name="jaxhyst-prefetch",
+            daemon=True,
+        )
+        self.thread.start()
+
+    def _load_ahead(self, digests: list[str]) -> None:
+        environment = _environment() + "|"
+        compiling = f"|{_compile_environment()}|options="
+
+        def wanted(key: str) -> bool:
+            return key.startswith(environment) and compiling in key
+
+        for digest in digests:
+            if self.stop.is_set():
+                return
+            with self.lock:
+                if digest in self.taken:
+                    continue
+                self.taken.add(digest)
+                future = self.loaded[digest] = Future()
+            try:
+                path = self.store / f"{digest}.executable"
+                future.set_result(_read_executable(path, wanted))
+            except BaseException as error:  # raised to the call that asks for it
+                future.set_exception(error)
+
+    def take(self, digest: str) -> Any:
+        """The thread's `_read_executable` result for `digest` (waiting for it if it
+        is loading it now), or `_NOT_PREFETCHED`; the thread skips it from now."""
+        with self.lock:
+            future = self.loaded.pop(digest, None)
+            self.taken.add(digest)
+        if future is None:
+            return _NOT_PREFETCHED
+        found = future.result()
+        if found is not None:
+            self.served += 1
+        return found
+
+    def forget(self) -> None:
+        with self.lock:
+            self.loaded.clear()
+
+    def finish(self) -> None:
+        """Stop the thread (after the executable it is loading) and keep this
+        block's list for the next block that begins with the same program."""
+        self.stop.set()
+        if self.thread is not None:
+            self.thread.join()
+        self.forget()
+        if len(self.used) > 1:
+            listed = "\n".join(self.used[:_PREFETCH_LIMIT]).encode()
+            try:
+                _write(self.list_path(self.used[0]), listed)
+            except OSError:
+                pass  # a full disk, a folder made read-only: nothing is lost
+
+
+_prefetch: _Prefetch | None = None
+
+
+def _noted(digest: str) -> None:
+    run = _prefetch
+    if run is not None:
+        run.note(digest)
+
+
+def _prefetched(digest: str) -> Any:
+    run = _prefetch
+    return _NOT_PREFETCHED if run is None else run.take(digest)
+
+
+@contextlib.contextmanager
+def prefetching() -> Iterator[None]:
+    """Load stored executables ahead of the calls that need them, in a background
+    thread, while the block runs. The block's first stored program names a list,
+    kept in the store, of the programs the last block that began with it used, in
+    the order it asked for them: the thread loads those (about 0.1-0.5 s each on
+    the 2-core machine, most of it outside Python's lock) while the block computes,
+    and a call finds its executable loaded, or waits for the one being loaded. At
+    the end the block's own list replaces it. A command run twice (the same
+    recording, or one of the same length and kind) thus loads most of what it runs
+    in the background. Programs the list names that the block does not use are
+    loaded for nothing (a recording of another kind that begins the same way).
+    With the store off, JAX's debug options on, or inside another such block, it
+    does nothing; the CLI runs every command in one."""
+    global _prefetch
+    store = _store
+    if store is None or _debugging() or _prefetch is not None:
+        yield
+        return
+    run = _prefetch = _Prefetch(store)
+    try:
+        yield
+    finally:
+        _prefetch = None
+        run.finish()
 
 
 def stored_jit(

@@ -19,6 +19,7 @@ import pytest
 from jaxhyst import _program_store
 from jaxhyst._program_store import (
     enable_program_store,
+    prefetching,
     preparing,
     program_store,
     stored_jit,
@@ -509,3 +510,122 @@ def test_near_the_memory_map_limit_the_loaded_executables_are_let_go(
     traces["count"] = 0
     assert _stored(_model(), x, 0.5)["y"] == first  # loaded from the store again
     assert traces["count"] == 0
+
+
+def _in_a_fresh_process():
+    """Forget what this process loaded, as a new process starts."""
+    _stored.__dict__["_memo"] = {}
+    jax.clear_caches()
+    traces["count"] = 0
+
+
+def test_a_block_loads_ahead_what_the_last_block_begun_the_same_way_used(store):
+    x = jnp.ones(3)
+    with prefetching():
+        first = [_stored(_model(p), x, 0.5)["y"] for p in (2, 3, 4)]
+    (listed,) = (store / "prefetch").glob("*.list")
+    _in_a_fresh_process()
+    with prefetching():
+        run = _program_store._prefetch
+        assert run is not None
+        again = [_stored(_model(2), x, 0.5)["y"]]
+        assert run.thread is not None  # the first program started the thread
+        run.thread.join()
+        assert len(run.loaded) == 2  # the other two, loaded before being asked for
+        again += [_stored(_model(p), x, 0.5)["y"] for p in (3, 4)]
+        assert run.served == 2
+    assert again == first
+    assert traces["count"] == 0
+    assert list((store / "prefetch").glob("*.list")) == [listed]
+    # A block that begins with another program finds no list: nothing ahead.
+    _in_a_fresh_process()
+    with prefetching():
+        run = _program_store._prefetch
+        assert run is not None
+        _stored(_model(3), x, 0.5)
+        assert run.thread is None
+        _stored(_model(2), x, 0.5)
+    assert len(list((store / "prefetch").glob("*.list"))) == 2
+
+
+def test_a_call_the_thread_has_not_reached_loads_its_own_and_the_thread_skips_it(
+    store,
+):
+    x = jnp.ones(3)
+    with prefetching():
+        first = [_stored(_model(p), x, 0.5)["y"] for p in (2, 3, 4)]
+    _in_a_fresh_process()
+    with prefetching():
+        run = _program_store._prefetch
+        assert run is not None
+        run.take(_stored._keyed((_model(4), x, 0.5), {}).digest)  # asked for first
+        again = [_stored(_model(p), x, 0.5)["y"] for p in (2, 4, 3)]
+        assert run.thread is not None
+        run.thread.join()
+        assert run.served <= 1  # only the third can have come from the thread
+    assert again == [first[0], first[2], first[1]]
+
+
+def test_a_damaged_list_or_executable_is_ignored_and_the_program_loaded_as_usual(
+    store,
+):
+    x = jnp.ones(3)
+    with prefetching():
+        first = [_stored(_model(p), x, 0.5)["y"] for p in (2, 3)]
+    (listed,) = (store / "prefetch").glob("*.list")
+    listed.write_bytes(b"nonsense")
+    _in_a_fresh_process()
+    with prefetching():
+        run = _program_store._prefetch
+        assert run is not None
+        assert [_stored(_model(p), x, 0.5)["y"] for p in (2, 3)] == first
+        assert run.thread is None and run.served == 0
+    # The list is written again; an executable damaged since is not served.
+    executable = next(
+        p
+        for p in _files(store, "executable")
+        if p.stem == _stored._keyed((_model(3), x, 0.5), {}).digest
+    )
+    executable.write_bytes(b"nonsense")
+    _in_a_fresh_process()
+    with prefetching():
+        run = _program_store._prefetch
+        assert run is not None
+        y2, y3 = (_stored(_model(p), x, 0.5)["y"] for p in (2, 3))
+        assert run.thread is not None and run.served == 0
+    assert [y2, y3] == first
+    assert traces["count"] == 0  # compiled from its program, not traced
+
+
+def test_prefetching_is_off_without_the_store_and_not_nested(store):
+    x = jnp.ones(3)
+    enable_program_store(None)
+    with prefetching():
+        assert _program_store._prefetch is None
+        _stored(_model(), x, 0.5)
+    enable_program_store(store)
+    with prefetching():
+        outer = _program_store._prefetch
+        with prefetching():
+            assert _program_store._prefetch is outer
+        _stored(_model(), x, 0.5)
+    assert _program_store._prefetch is None
+    assert not (store / "prefetch").exists()  # one program: nothing to load ahead
+
+
+def test_the_command_line_runs_each_command_in_a_prefetching_block(
+    store, tmp_path, monkeypatch
+):
+    from jaxhyst._cli import _main, _simulate
+
+    blocks = []
+    run = _simulate.run
+
+    def watched(args):
+        blocks.append(_program_store._prefetch)
+        return run(args)
+
+    monkeypatch.setattr(_simulate, "run", watched)
+    assert _main.main(["simulate", "--out", str(tmp_path / "out")]) == 0
+    assert len(blocks) == 1 and blocks[0] is not None
+    assert _program_store._prefetch is None

@@ -11,6 +11,7 @@ from typing import NoReturn
 import jax
 
 from .._cache import enable_compilation_cache
+from .._program_store import prefetching
 from .._recording import RecordingError
 from . import _compensate, _demo, _diagnose, _evaluate, _fit, _simulate
 from ._options import PROG, one_line
@@ -83,7 +84,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
-        return args.run(args)
+        with prefetching():
+            return args.run(args)
     except UsageError as error:
         print(
             f"{PROG}: error: {one_line(error)} (see '{error.prog} --help')",
