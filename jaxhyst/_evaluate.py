@@ -6,7 +6,6 @@ solver, so that a saved model is evaluated (and inverted) as it was fitted.
 
 import numpy as np
 
-from ._diagnose._families import DamperFamily, StructuralFamily
 from ._models.base import AbstractHysteresisModel
 from ._models.bouc_wen import BoucWen, PiezoStage
 from ._models.damper import BoucWenDamper, SpencerDamper
@@ -27,8 +26,12 @@ def default_solver(model: AbstractHysteresisModel, recording: Recording) -> RK4:
     if isinstance(model, PiezoStage):
         return RK4(substeps=4)
     if isinstance(model, (BoucWen, StructuralBoucWen)):
+        from ._diagnose._families import StructuralFamily
+
         return StructuralFamily().solver(recording)
     if isinstance(model, ExtendedDamper):
+        from ._diagnose._families import DamperFamily
+
         return DamperFamily().solver(recording)
     if isinstance(model, (BoucWenDamper, SpencerDamper)):
         return RK4(substeps=model.recommended_substeps(recording.input_path()))

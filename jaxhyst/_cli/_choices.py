@@ -2,22 +2,21 @@
 and `--preset` value, what it means (for `--help`) and what it builds. A name is
 added here and nowhere else."""
 
+import importlib
 from collections.abc import Callable, Mapping
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import jax
 import numpy as np
 
-from .._diagnose._families import (
-    AbstractFamily,
-    DamperFamily,
-    PiezoFamily,
-    StructuralFamily,
-)
 from .._models.base import AbstractHysteresisModel
 from .._models.bouc_wen import BoucWen, CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
 from .._models.damper import BoucWenDamper, SpencerDamper
 from .._signals import AbstractSignal, Chirp, Multisine, Triangle, paper_u1, paper_u2
+
+
+if TYPE_CHECKING:
+    from .._diagnose._families import AbstractFamily
 
 
 # --------------------------------------------------------- simulate --model
@@ -174,14 +173,16 @@ PRESETS: dict[str, int] = {f"case{case}": case for case in (1, 2, 3, 4)}
 # ---------------------------------------------------------- diagnose --model
 
 
-DIAGNOSE_FAMILIES: dict[str, Callable[[], AbstractFamily]] = {
-    "piezo": PiezoFamily,
-    "bouc-wen": StructuralFamily,
-    "mr-damper": DamperFamily,
+# Each `--model` value and its family class in `jaxhyst._diagnose._families`,
+# imported when a diagnosis asks for it (the other commands do not import it).
+DIAGNOSE_FAMILIES: dict[str, str] = {
+    "piezo": "PiezoFamily",
+    "bouc-wen": "StructuralFamily",
+    "mr-damper": "DamperFamily",
 }
 
 
-def family(name: str) -> AbstractFamily:
+def family(name: str) -> "AbstractFamily":
     """The diagnosis family of `diagnose --model NAME`."""
     if name not in DIAGNOSE_FAMILIES:
         known = (
@@ -195,7 +196,8 @@ def family(name: str) -> AbstractFamily:
             "--model bouc-wen (structural cyclic tests: displacement -> force) or "
             "--model mr-damper (MR dampers: displacement and command -> force)."
         )
-    return DIAGNOSE_FAMILIES[name]()
+    families = importlib.import_module(".._diagnose._families", __package__)
+    return getattr(families, DIAGNOSE_FAMILIES[name])()
 
 
 def described(table: Mapping[str, ModelChoice | SignalChoice | FitChoice]) -> str:

@@ -2,6 +2,7 @@
 turns user errors into one line on stderr."""
 
 import argparse
+import importlib
 import os
 import sys
 import traceback
@@ -13,12 +14,13 @@ import jax
 from .._cache import enable_compilation_cache
 from .._program_store import prefetching
 from .._recording import RecordingError
-from . import _compensate, _demo, _diagnose, _evaluate, _fit, _simulate
 from ._options import PROG, one_line
 
 
-# The commands in the order `jaxhyst --help` lists them.
-_COMMANDS = (_simulate, _fit, _diagnose, _evaluate, _compensate, _demo)
+# The commands in the order `jaxhyst --help` lists them; each is the module
+# `jaxhyst._cli._<name>`, imported only when its parser is needed (a command line
+# naming one command imports that one: `jaxhyst fit` does not import the diagnosis).
+COMMANDS = ("simulate", "fit", "diagnose", "evaluate", "compensate", "demo")
 
 
 class UsageError(Exception):
@@ -38,9 +40,29 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(self.prog, message)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from .. import __version__
+class _Version(argparse.Action):
+    """`--version`: prints jaxhyst's version (read only when asked for) and exits."""
 
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from .. import __version__
+
+        print(f"{parser.prog} {__version__}")  # on stdout, as argparse's own
+        parser.exit()
+
+
+def _named_command(argv: Sequence[str]) -> str | None:
+    """The command `argv` names (its first argument, when that is one), else None."""
+    return argv[0] if argv and argv[0] in COMMANDS else None
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The `jaxhyst` parser. Given the command line it will parse, and that names a
+    command, it declares that command only (importing only its module); otherwise
+    every command (for `--help`, and for the error on an unknown one)."""
+    named = None if argv is None else _named_command(argv)
     parser = _Parser(
         prog=PROG,
         description=(
@@ -51,11 +73,11 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     parser.add_argument(
-        "--version", action="version", version=f"%(prog)s {__version__}"
+        "--version", action=_Version, help="show the version number and exit"
     )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for command in _COMMANDS:
-        command.add_parser(subparsers)
+    for name in COMMANDS if named is None else (named,):
+        importlib.import_module(f"{__package__}._{name}").add_parser(subparsers)
     return parser
 
 
@@ -81,7 +103,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     status: 0 on success, 2 on a user error (reported as one line on stderr)."""
     enable_compilation_cache()
     jax.config.update("jax_enable_x64", True)
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     try:
         args = parser.parse_args(argv)
         with prefetching():
