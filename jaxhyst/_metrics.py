@@ -12,12 +12,14 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
+from ._arrays import device_array
+
 
 def _pair(
     fn: str, y: Float[ArrayLike, "..."], yhat: Float[ArrayLike, "..."]
 ) -> tuple[Float[Array, "..."], Float[Array, "..."]]:
-    y = jnp.asarray(y)
-    yhat = jnp.asarray(yhat)
+    y = device_array(y)
+    yhat = device_array(yhat)
     if y.shape != yhat.shape:
         raise ValueError(
             f"{fn}: y and yhat must have the same shape, got {y.shape} and "

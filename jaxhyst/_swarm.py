@@ -704,13 +704,14 @@ def run_swarm(
                 replicated_sharding,
             )
         monitor = _Monitor(
-            reference=state.gbest_fitness, last_improvement=jnp.zeros((), jnp.int32)
+            reference=state.gbest_fitness,
+            last_improvement=device_array(np.zeros((), np.int32)),
         )
         target_array = device_array(-np.inf if target is None else target, dtype)
-        stall_array = jnp.asarray(
+        stall_array = device_array(
             _NEVER if stall_iterations is None else stall_iterations, jnp.int32
         )
-        tolerance_array = jnp.asarray(stall_tolerance, dtype)
+        tolerance_array = device_array(stall_tolerance, dtype)
 
         history = []
         iteration = -1

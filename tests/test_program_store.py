@@ -211,15 +211,18 @@ _CHILD = textwrap.dedent(
     y = jh.simulate(model, path, jh.RK4())
     import numpy as np
     recording = jh.Recording(np.arange(path.num_samples) / 100.0, np.asarray(path.values), np.asarray(y))
+    key = jax.random.key(0)
+    before_fit = len(lowered)
     fit = jh.identify(
         jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5),
         recording,
-        key=jax.random.key(0),
+        key=key,
         swarm=jh.MPSO(num_particles=8, num_iterations=10),
     )
     print(json.dumps({
         "traced": traced,
         "lowered": lowered,
+        "lowered_in_fit": lowered[before_fit:],
         "parameters": {k: float(v) for k, v in fit.model.parameters().items()},
     }))
     """
@@ -267,6 +270,9 @@ def test_a_second_process_identifies_without_tracing_the_fit(tmp_path):
     # the identifiability call jaxlib's LAPACK kernels, which loading sets up
     # (else this process would crash in the polish).
     assert _stored_lowered(second) == [], second["lowered"]
+    # Nor any eager operation (a `jnp` call on host values, outside `jit`), each of
+    # which lowers a small program in every process: only the metrics' own `jit`.
+    assert set(second["lowered_in_fit"]) <= {"jit(_all)"}, second["lowered_in_fit"]
     assert _files(cache / "programs") == stored
     assert second["parameters"] == first["parameters"]
 

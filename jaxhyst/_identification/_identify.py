@@ -152,15 +152,16 @@ def search(
     d = problem.space.dimension
     return run_swarm(
         swarm_objective,
-        jnp.zeros(d),
-        jnp.ones(d),
+        device_array(np.zeros(d)),
+        device_array(np.ones(d)),
         swarm,
         key,
         args=problem,
         progress=progress,
         chunk_size=chunk_size,
         stall_iterations=stall_iterations,
-        stall_tolerance=1e-4 * float(problem.output_scale),
+        # On the host: `output_scale` outside `jit` compiles two small programs.
+        stall_tolerance=1e-4 * float(np.max(np.abs(np.asarray(problem.measured)))),
         throw=False,
     )
 
@@ -454,7 +455,7 @@ def identify(
             flat = np.asarray(_simulated(analysed, fitted))
         simulated = flat.reshape(len(records), -1)
         predicted = tuple(
-            jnp.asarray(simulated[i, : r.num_samples]) for i, r in enumerate(records)
+            device_array(simulated[i, : r.num_samples]) for i, r in enumerate(records)
         )
         metrics = error_metrics(
             np.concatenate([r.y for r in records]), np.concatenate(predicted)
@@ -498,7 +499,7 @@ def _prepare_after_search(
     are known before it starts."""
     # Any point of the box; not weakly typed, as the swarm's best is not (a weak
     # type is part of a program's key).
-    z = 0.5 * jnp.ones(problem.space.dimension)
+    z = device_array(np.full(problem.space.dimension, 0.5))
     if polish is not None:
         polish.prepare(problem, z)
     fitted = model_at(problem.space, z)

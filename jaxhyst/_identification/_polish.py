@@ -14,6 +14,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from .._arrays import device_array
 from .._program_store import stored_jit
 from .._status import RESULTS
 from ._problem import Problem, problem_residuals, problem_rmse
@@ -243,7 +244,7 @@ class AbstractOptimistixPolish(AbstractPolish):
             jnp.asarray(z0),
             self.max_steps,
             max(1, min(self.window, self.max_steps)),
-            jnp.asarray(stop_gain(self.min_gain, problem)),
+            device_array(stop_gain(self.min_gain, problem)),
         )
 
     def prepare(self, problem: Problem, z0: Float[Array, " d"]) -> None:
