@@ -160,8 +160,7 @@ def search(
         progress=progress,
         chunk_size=chunk_size,
         stall_iterations=stall_iterations,
-        # On the host: `output_scale` outside `jit` compiles two small programs.
-        stall_tolerance=1e-4 * float(np.max(np.abs(np.asarray(problem.measured)))),
+        stall_tolerance=1e-4 * float(problem.output_scale),
         throw=False,
     )
 

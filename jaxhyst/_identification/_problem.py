@@ -6,8 +6,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.core import Tracer
 from jaxtyping import Array, ArrayLike, Float
 
+from .._arrays import device_array
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
 from .._params import ParameterSpace
@@ -41,8 +43,11 @@ class Problem(eqx.Module):
 
     @property
     def output_scale(self) -> Float[Array, ""]:
-        """max |measured| over every record: the residuals' unit."""
-        return jnp.max(jnp.abs(self.measured))
+        """max |measured| over every record: the residuals' unit. Outside `jit`
+        it is computed on the host (no small program compiled per process)."""
+        if isinstance(self.measured, Tracer):
+            return jnp.max(jnp.abs(self.measured))
+        return device_array(np.max(np.abs(np.asarray(self.measured))))
 
     @property
     def fitted_samples(self) -> int:
