@@ -79,8 +79,11 @@ from typing import Any, Generic, NamedTuple, ParamSpec, TypeVar
 import equinox as eqx
 import jax
 import numpy as np
+from jax._src import core as _jax_core  # trace_state_clean: no public equivalent
 from jax.core import Tracer
 from jax.experimental import serialize_executable
+
+from . import _xla_options
 
 
 _P = ParamSpec("_P")
@@ -296,14 +299,9 @@ class _StoredJit(Generic[_P, _R]):
         # `_traced` runs inside the export's `jax.jit` (nested: no compiler options;
         # the exported call's `jax.jit` compiles with them).
         self._traced = eqx.filter_jit(fn)
-        # `Any`: equinox's jit wrapper (called, and `.lower`-ed by `prepare`).
-        self.jitted: Any = (
-            self._traced
-            if compiler_options is None
-            else eqx.filter_jit(fn, compiler_options=compiler_options)  # pyright: ignore[reportCallIssue]
-        )
         self._fn = fn
-        self._compiler_options = compiler_options
+        # The library's options and the program's own (`_xla_options`).
+        self._compiler_options = _xla_options.compiler_options(compiler_options)
         # One future per key: the program (None: it cannot be stored), resolved once
         # it is built (or read) and compiled; a call that finds another thread
         # building it waits for that instead of building it again.
@@ -314,6 +312,22 @@ class _StoredJit(Generic[_P, _R]):
         self._lock = threading.Lock()
         functools.update_wrapper(self, fn)
         _instances.add(self)
+
+    def _unstored(self) -> Any:
+        """The jit an unstored call runs: `jitted`, or inside a JAX transformation
+        (a nested jit, vmap, grad: XLA's options belong to the outermost jit) the
+        plain one."""
+        return self.jitted if _jax_core.trace_state_clean() else self._traced
+
+    @functools.cached_property
+    def jitted(self) -> Any:
+        """The call's own jit, for calls that run unstored (`Any`: equinox's jit
+        wrapper, called, and `.lower`-ed by `prepare`). Made on first use: whether
+        XLA knows the library's options is asked only when something compiles."""
+        options = _xla_options.supported(self._compiler_options)
+        if not options:
+            return self._traced
+        return eqx.filter_jit(self._fn, compiler_options=options)  # pyright: ignore[reportCallIssue]
 
     def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
         found = self._stored_program(args, kwargs)
@@ -327,7 +341,7 @@ class _StoredJit(Generic[_P, _R]):
                     preparation = self._prepared.pop(keyed.digest, None)
                 if preparation is not None:
                     preparation.result()
-        return self.jitted(*args, **kwargs)
+        return self._unstored()(*args, **kwargs)
 
     def prepare(self, *args: _P.args, **kwargs: _P.kwargs) -> None:
         """Trace and compile the program that a call with these arguments runs
@@ -346,7 +360,7 @@ class _StoredJit(Generic[_P, _R]):
 
         def compile_it() -> None:
             # The call's own jit: its later calls reuse this trace and compilation.
-            self.jitted.lower(*args, **kwargs).compile()
+            self._unstored().lower(*args, **kwargs).compile()
 
         self._once(self._prepared, keyed.digest, compile_it)
 
@@ -444,7 +458,9 @@ class _StoredJit(Generic[_P, _R]):
         # (left to itself, jit compiles again for each mix of committed inputs).
         device = jax.sharding.SingleDeviceSharding(jax.devices()[0])
         run = jax.jit(
-            call, in_shardings=device, compiler_options=self._compiler_options
+            call,
+            in_shardings=device,
+            compiler_options=_xla_options.supported(self._compiler_options),
         )
         hits = _compilation_cache_hits()
         compiled = run.lower(*arrays).compile()
@@ -881,7 +897,9 @@ def stored_jit(
 ) -> Any:
     """`eqx.filter_jit` whose traced programs are kept in the program store when it
     is on (see the module docstring); with the store off it is `eqx.filter_jit`.
-    Use it as `@stored_jit` or `@stored_jit(compiler_options=...)`."""
+    Use it as `@stored_jit` or `@stored_jit(compiler_options=...)`; either way XLA
+    compiles it with jaxhyst's own options too (`_xla_options`; `compiler_options`
+    win where they name the same one)."""
     if fn is None:
         return functools.partial(stored_jit, compiler_options=compiler_options)
     return _StoredJit(fn, compiler_options)

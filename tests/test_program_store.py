@@ -635,3 +635,83 @@ def test_the_command_line_runs_each_command_in_a_prefetching_block(
     assert _main.main(["simulate", "--out", str(tmp_path / "out")]) == 0
     assert len(blocks) == 1 and blocks[0] is not None
     assert _program_store._prefetch is None
+
+
+def _watch_compiler_options(monkeypatch) -> list:
+    """The `compiler_options` of every `jax.jit` made from now on (this test's)."""
+    seen = []
+    jit = jax.jit
+
+    def watched(fun, *args, **kwargs):
+        seen.append(kwargs.get("compiler_options"))
+        return jit(fun, *args, **kwargs)
+
+    monkeypatch.setattr(jax, "jit", watched)
+    return seen
+
+
+@pytest.mark.parametrize("stored", [False, True])
+def test_programs_compile_with_the_library_options_and_their_own(
+    stored, tmp_path, monkeypatch
+):
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    own = stored_jit(_body, compiler_options={"xla_cpu_prefer_vector_width": 256})
+    before = program_store()
+    if stored:
+        monkeypatch.setattr(
+            _program_store,
+            "_PINNED_PACKAGES",
+            (*_program_store._PINNED_PACKAGES, __name__.split(".")[0]),
+        )
+        enable_program_store(tmp_path / "programs")
+    seen = _watch_compiler_options(monkeypatch)
+    try:
+        out = own(_model(), jnp.ones(3), 0.5)
+    finally:
+        enable_program_store(before)
+    assert out["y"] == 6.5
+    # XLA:CPU's older emitters (the library's option) and the program's own width.
+    assert {
+        "xla_cpu_use_fusion_emitters": False,
+        "xla_cpu_prefer_vector_width": 256,
+    } in seen
+    if stored:  # the executable's key names them too
+        (executable,) = _files(tmp_path / "programs", "executable")
+        assert b"xla_cpu_use_fusion_emitters" in executable.read_bytes()
+
+
+def test_inside_a_transformation_a_call_compiles_with_no_options_of_its_own():
+    # XLA's options belong to the outermost jit: a nested one with options is an
+    # error in JAX, so the stored function is traced into the caller's program.
+    own = stored_jit(_body, compiler_options={"xla_cpu_prefer_vector_width": 256})
+    outer = jax.jit(lambda x: own(_model(), x, 0.5)["y"])
+    np.testing.assert_allclose(outer(jnp.ones(3)), 6.5)
+    np.testing.assert_allclose(
+        jax.vmap(lambda x: own(_model(), x, 0.5)["y"])(jnp.ones((2, 3))), [6.5, 6.5]
+    )
+
+
+def test_xla_flags_naming_a_library_option_decide_it(monkeypatch):
+    from jaxhyst import _xla_options
+
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_use_fusion_emitters=true")
+    assert _xla_options.compiler_options() == {}
+    assert _xla_options.compiler_options({"a": 1}) == {"a": 1}
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_enable_fast_math=false")
+    assert _xla_options.compiler_options() == {"xla_cpu_use_fusion_emitters": False}
+
+
+def test_a_library_option_this_xla_does_not_know_is_left_out(monkeypatch):
+    from jaxhyst import _xla_options
+
+    unknown = {"xla_cpu_no_such_option_in_any_xla": True}
+    monkeypatch.setattr(_xla_options, "_LIBRARY_OPTIONS", unknown)
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    assert _xla_options.compiler_options() == unknown
+    assert _xla_options.supported(unknown) == {}  # compiles without it
+    assert _xla_options.supported({"xla_cpu_use_fusion_emitters": False}) == {
+        "xla_cpu_use_fusion_emitters": False  # not the library's here: passed on
+    }
+    own = stored_jit(_body)
+    monkeypatch.setattr(own, "_compiler_options", _xla_options.compiler_options())
+    assert own(_model(), jnp.ones(3), 0.5)["y"] == 6.5
