@@ -88,7 +88,7 @@ def test_a_stored_program_gives_the_traced_result_and_is_not_traced_again(store)
     assert traces["count"] == 1  # traced once, to export it
     assert len(_files(store)) == 1
     assert out["n"] == 2 and isinstance(out["n"], int)  # static outputs come back
-    expected = _stored.jitted(_model(), x, 0.5)  # plain filter_jit
+    expected = _stored._traced(_model(), x, 0.5)  # plain filter_jit (the export's)
     np.testing.assert_array_equal(out["y"], expected["y"])
     # New array values, same structure: the stored program, no new trace or file.
     _stored.__dict__["_memo"] = {}  # as a new process would: read it from disk
