@@ -300,7 +300,7 @@ class _StoredJit(Generic[_P, _R]):
         # the exported call's `jax.jit` compiles with them).
         self._traced = eqx.filter_jit(fn)
         self._fn = fn
-        # The library's options and the program's own (`_xla_options`).
+        # The options it asked for, less those `XLA_FLAGS` decides (`_xla_options`).
         self._compiler_options = _xla_options.compiler_options(compiler_options)
         # One future per key: the program (None: it cannot be stored), resolved once
         # it is built (or read) and compiled; a call that finds another thread
@@ -323,7 +323,7 @@ class _StoredJit(Generic[_P, _R]):
     def jitted(self) -> Any:
         """The call's own jit, for calls that run unstored (`Any`: equinox's jit
         wrapper, called, and `.lower`-ed by `prepare`). Made on first use: whether
-        XLA knows the library's options is asked only when something compiles."""
+        XLA knows its optional options is asked only when something compiles."""
         options = _xla_options.supported(self._compiler_options)
         if not options:
             return self._traced
@@ -897,9 +897,8 @@ def stored_jit(
 ) -> Any:
     """`eqx.filter_jit` whose traced programs are kept in the program store when it
     is on (see the module docstring); with the store off it is `eqx.filter_jit`.
-    Use it as `@stored_jit` or `@stored_jit(compiler_options=...)`; either way XLA
-    compiles it with jaxhyst's own options too (`_xla_options`; `compiler_options`
-    win where they name the same one)."""
+    Use it as `@stored_jit` or `@stored_jit(compiler_options=...)` (XLA options for
+    the outermost jit; see `_xla_options` for those an XLA may not know)."""
     if fn is None:
         return functools.partial(stored_jit, compiler_options=compiler_options)
     return _StoredJit(fn, compiler_options)

@@ -30,6 +30,7 @@ from jaxtyping import Array, ArrayLike, Float, Int, PRNGKeyArray
 from ._arrays import device_array
 from ._program_store import stored_jit
 from ._status import RESULTS, raise_unless_successful
+from ._xla_options import ELEMENTAL_EMITTERS
 
 
 # Table 3 of the paper: case -> (swarm size, number of iterations G).
@@ -461,7 +462,7 @@ def _map_state(state: SwarmState, fn, particle, replicated) -> SwarmState:
     return SwarmState(**changes)
 
 
-@stored_jit
+@stored_jit(compiler_options=ELEMENTAL_EMITTERS)  # one-shot: quick to compile
 def _sample_jit(swarm, lower, upper, key):
     with _quick_threefry():
         key_init, key_loop = jr.split(key)

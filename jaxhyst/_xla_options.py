@@ -1,12 +1,15 @@
-"""The XLA compiler options jaxhyst's own programs (`stored_jit`) are compiled with.
+"""XLA compiler options that jaxhyst's programs (`stored_jit`) may ask for, and what
+becomes of them where XLA does not know them or `XLA_FLAGS` names them.
 
-XLA:CPU's MLIR fusion emitters, the default of recent jaxlibs, took about twice as
-long to compile jaxhyst's programs (the swarm's RK4 loop, the Levenberg-Marquardt
-polish, the identifiability Jacobian) as its older elemental emitters, and ran them
-no faster (benchmarks/HISTORY.md, session 34): a fresh `jaxhyst fit` spends about
-4 s compiling instead of 7 s. So jaxhyst asks for the older emitters. Other backends
-ignore the option; an XLA that does not know it (another jaxlib) compiles without
-it; and where `XLA_FLAGS` names it, `XLA_FLAGS` decides.
+`ELEMENTAL_EMITTERS` asks XLA:CPU for its older elemental IR emitters instead of the
+MLIR fusion emitters recent jaxlibs use by default. Measured on jaxhyst's programs
+(benchmarks/HISTORY.md, session 34), it halves their compile time, but what it gives
+runs at the same speed only for some: the Levenberg-Marquardt polish ran as fast
+or faster, while the swarm's loop, the identifiability Jacobian and the diagnosis's
+predictions ran 10-35 % slower on 45 000-sample records. So only the programs that
+lose nothing ask for it (the polish, and small one-shot programs). Other backends
+ignore the option; an XLA that does not know it compiles without it; and where
+`XLA_FLAGS` names it, `XLA_FLAGS` decides.
 """
 
 import functools
@@ -15,27 +18,30 @@ import os
 import jax
 
 
-_LIBRARY_OPTIONS: dict[str, bool | int | float | str] = {
-    "xla_cpu_use_fusion_emitters": False,
-}
+ELEMENTAL_EMITTERS = {"xla_cpu_use_fusion_emitters": False}
+
+# Options left out where this XLA does not know them or `XLA_FLAGS` names them
+# (the others are passed on as they are: a wrong one is an error).
+_OPTIONAL = frozenset(ELEMENTAL_EMITTERS)
 
 
-def compiler_options(extra: dict | None = None) -> dict:
-    """The options a jaxhyst program asks for: the library's (less those `XLA_FLAGS`
-    names), then `extra` (a program's own, e.g. the swarm's vector width), which
-    win. Part of a stored executable's key (`stored_jit`)."""
+def compiler_options(requested: dict | None) -> dict:
+    """The options a program compiles with: `requested` less the optional ones that
+    `XLA_FLAGS` names (the user's choice). Part of a stored executable's key."""
     flags = os.environ.get("XLA_FLAGS", "")
-    chosen = {k: v for k, v in _LIBRARY_OPTIONS.items() if f"--{k}" not in flags}
-    return {**chosen, **(extra or {})}
+    return {
+        name: value
+        for name, value in (requested or {}).items()
+        if not (name in _OPTIONAL and f"--{name}" in flags)
+    }
 
 
 def supported(options: dict) -> dict:
-    """`options` less the library's own that this XLA does not know (a program's own
-    options are passed on as they are: a wrong one is an error)."""
+    """`options` less the optional ones this XLA does not know."""
     return {
         name: value
         for name, value in options.items()
-        if name not in _LIBRARY_OPTIONS or _known(name, value)
+        if name not in _OPTIONAL or _known(name, value)
     }
 
 

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxhyst import _program_store
+from jaxhyst import _program_store, _xla_options
 from jaxhyst._program_store import (
     enable_program_store,
     prefetching,
@@ -24,6 +24,7 @@ from jaxhyst._program_store import (
     program_store,
     stored_jit,
 )
+from jaxhyst._xla_options import ELEMENTAL_EMITTERS
 
 
 class _Scaled(eqx.Module):
@@ -650,12 +651,13 @@ def _watch_compiler_options(monkeypatch) -> list:
     return seen
 
 
+_ASKED = {**ELEMENTAL_EMITTERS, "xla_cpu_prefer_vector_width": 256}
+
+
 @pytest.mark.parametrize("stored", [False, True])
-def test_programs_compile_with_the_library_options_and_their_own(
-    stored, tmp_path, monkeypatch
-):
+def test_a_program_compiles_with_the_options_it_asks_for(stored, tmp_path, monkeypatch):
     monkeypatch.delenv("XLA_FLAGS", raising=False)
-    own = stored_jit(_body, compiler_options={"xla_cpu_prefer_vector_width": 256})
+    own = stored_jit(_body, compiler_options=_ASKED)
     before = program_store()
     if stored:
         monkeypatch.setattr(
@@ -670,20 +672,31 @@ def test_programs_compile_with_the_library_options_and_their_own(
     finally:
         enable_program_store(before)
     assert out["y"] == 6.5
-    # XLA:CPU's older emitters (the library's option) and the program's own width.
-    assert {
-        "xla_cpu_use_fusion_emitters": False,
-        "xla_cpu_prefer_vector_width": 256,
-    } in seen
+    assert _ASKED in seen
     if stored:  # the executable's key names them too
         (executable,) = _files(tmp_path / "programs", "executable")
         assert b"xla_cpu_use_fusion_emitters" in executable.read_bytes()
 
 
+def test_the_polish_and_one_shot_programs_ask_for_the_elemental_emitters(
+    monkeypatch,
+):
+    # Half the compile time of XLA:CPU's MLIR fusion emitters, and no slower to run
+    # (benchmarks/HISTORY.md, session 34); the swarm's loop, whose code ran slower
+    # with them, keeps XLA's default (the options reach XLA: the test above).
+    from jaxhyst._identification._polish import _optimistix_loop
+    from jaxhyst._identification._problem import model_at
+    from jaxhyst._swarm import _run_chunk, _sample_jit
+
+    for program in (_optimistix_loop, model_at, _sample_jit):
+        assert program._compiler_options == ELEMENTAL_EMITTERS
+    assert "xla_cpu_use_fusion_emitters" not in _run_chunk._compiler_options
+
+
 def test_inside_a_transformation_a_call_compiles_with_no_options_of_its_own():
     # XLA's options belong to the outermost jit: a nested one with options is an
     # error in JAX, so the stored function is traced into the caller's program.
-    own = stored_jit(_body, compiler_options={"xla_cpu_prefer_vector_width": 256})
+    own = stored_jit(_body, compiler_options=_ASKED)
     outer = jax.jit(lambda x: own(_model(), x, 0.5)["y"])
     np.testing.assert_allclose(outer(jnp.ones(3)), 6.5)
     np.testing.assert_allclose(
@@ -691,27 +704,21 @@ def test_inside_a_transformation_a_call_compiles_with_no_options_of_its_own():
     )
 
 
-def test_xla_flags_naming_a_library_option_decide_it(monkeypatch):
-    from jaxhyst import _xla_options
-
+def test_xla_flags_naming_an_optional_option_decide_it(monkeypatch):
     monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_use_fusion_emitters=true")
-    assert _xla_options.compiler_options() == {}
-    assert _xla_options.compiler_options({"a": 1}) == {"a": 1}
+    assert _xla_options.compiler_options(_ASKED) == {"xla_cpu_prefer_vector_width": 256}
     monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_enable_fast_math=false")
-    assert _xla_options.compiler_options() == {"xla_cpu_use_fusion_emitters": False}
+    assert _xla_options.compiler_options(_ASKED) == _ASKED
+    assert _xla_options.compiler_options(None) == {}
 
 
-def test_a_library_option_this_xla_does_not_know_is_left_out(monkeypatch):
-    from jaxhyst import _xla_options
-
+def test_an_optional_option_this_xla_does_not_know_is_left_out(monkeypatch):
     unknown = {"xla_cpu_no_such_option_in_any_xla": True}
-    monkeypatch.setattr(_xla_options, "_LIBRARY_OPTIONS", unknown)
+    monkeypatch.setattr(_xla_options, "_OPTIONAL", frozenset(unknown))
     monkeypatch.delenv("XLA_FLAGS", raising=False)
-    assert _xla_options.compiler_options() == unknown
+    assert _xla_options.compiler_options(unknown) == unknown
     assert _xla_options.supported(unknown) == {}  # compiles without it
-    assert _xla_options.supported({"xla_cpu_use_fusion_emitters": False}) == {
-        "xla_cpu_use_fusion_emitters": False  # not the library's here: passed on
-    }
-    own = stored_jit(_body)
-    monkeypatch.setattr(own, "_compiler_options", _xla_options.compiler_options())
+    # Not optional here: passed on as it is.
+    assert _xla_options.supported(ELEMENTAL_EMITTERS) == ELEMENTAL_EMITTERS
+    own = stored_jit(_body, compiler_options=unknown)
     assert own(_model(), jnp.ones(3), 0.5)["y"] == 6.5

@@ -17,6 +17,7 @@ from jaxtyping import Array, Float
 from .._arrays import device_array
 from .._program_store import stored_jit
 from .._status import RESULTS
+from .._xla_options import ELEMENTAL_EMITTERS
 from ._problem import Problem, problem_residuals, problem_rmse
 
 
@@ -120,7 +121,8 @@ def _objective(least_squares: bool):
     return residuals if least_squares else mean_square
 
 
-@stored_jit
+# XLA:CPU's elemental emitters: half the compile time, and ran no slower here.
+@stored_jit(compiler_options=ELEMENTAL_EMITTERS)
 def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_gain):
     fn = _objective(least_squares)
     options, tags = {}, frozenset()

@@ -16,6 +16,7 @@ from .._params import ParameterSpace
 from .._program_store import stored_jit
 from .._simulate import RK4, AbstractSimulationSolver, simulate, sum_squared_error
 from .._stability import is_bibo_stable
+from .._xla_options import ELEMENTAL_EMITTERS
 
 
 def _over_records(function, inputs: InputPath, *arrays):
@@ -172,7 +173,7 @@ def problem_residuals(problem: Problem, z: Float[Array, " d"]) -> Float[Array, "
     return problem.residuals(z)
 
 
-@stored_jit
+@stored_jit(compiler_options=ELEMENTAL_EMITTERS)  # one-shot: quick to compile
 def model_at(space: ParameterSpace, z: Float[Array, " d"]) -> AbstractHysteresisModel:
     """`space.to_model(z)` as one program (eagerly it is a dozen tiny ones)."""
     return space.to_model(z)
