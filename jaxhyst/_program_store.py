@@ -320,11 +320,17 @@ class _StoredJit(Generic[_P, _R]):
         return self.jitted if _jax_core.trace_state_clean() else self._traced
 
     @functools.cached_property
+    def _xla_compiler_options(self) -> dict:
+        """The options its outermost jit compiles with, on both paths. Made on first
+        use: whether XLA knows its optional options is asked only when something
+        compiles."""
+        return _xla_options.supported(self._compiler_options)
+
+    @functools.cached_property
     def jitted(self) -> Any:
         """The call's own jit, for calls that run unstored (`Any`: equinox's jit
-        wrapper, called, and `.lower`-ed by `prepare`). Made on first use: whether
-        XLA knows its optional options is asked only when something compiles."""
-        options = _xla_options.supported(self._compiler_options)
+        wrapper, called, and `.lower`-ed by `prepare`)."""
+        options = self._xla_compiler_options
         if not options:
             return self._traced
         return eqx.filter_jit(self._fn, compiler_options=options)  # pyright: ignore[reportCallIssue]
@@ -460,7 +466,7 @@ class _StoredJit(Generic[_P, _R]):
         run = jax.jit(
             call,
             in_shardings=device,
-            compiler_options=_xla_options.supported(self._compiler_options),
+            compiler_options=self._xla_compiler_options,
         )
         hits = _compilation_cache_hits()
         compiled = run.lower(*arrays).compile()
