@@ -786,3 +786,21 @@ class TestNoTime:
         assert main(["fit", "--help"]) == 0
         text = " ".join(capsys.readouterr().out.split())
         assert "--no-time" in text and "pseudo time t = sample index" in text
+
+
+@pytest.mark.parametrize("seed", [0, 1, 7, 2**31, 2**32 + 5, 2**63 - 1, -1, -(2**63)])
+def test_seed_keys_are_jax_random_keys(seed):
+    import jax
+
+    from jaxhyst._cli._choices import prng_key
+
+    made = prng_key(seed)
+    expected = jax.random.key(seed)
+    assert made.dtype == expected.dtype
+    np.testing.assert_array_equal(
+        jax.random.key_data(made), jax.random.key_data(expected)
+    )
+    # The same draws, not only the same words.
+    np.testing.assert_array_equal(
+        jax.random.uniform(made, (3,)), jax.random.uniform(expected, (3,))
+    )

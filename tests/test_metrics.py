@@ -74,3 +74,36 @@ def test_jit_and_grad():
     np.testing.assert_allclose(grad, (YHAT - Y) / (4 * 1.0))
     grad_mae = jax.grad(lambda yh: jh.mae(y, yh))(jnp.asarray(YHAT) + 0.1)
     np.testing.assert_allclose(grad_mae, np.full(4, 0.25) * np.sign(YHAT + 0.1 - Y))
+
+
+def test_error_metrics_match_the_measures_without_compiling():
+    y = np.sin(np.linspace(0, 7, 1001))
+    yhat = y + 1e-3 * np.cos(np.linspace(0, 50, 1001))
+    on_device = jax.block_until_ready(jnp.asarray(yhat))
+    compiled = []
+
+    def listen(event, duration, **kwargs):
+        if event.endswith("backend_compile_duration"):
+            compiled.append(kwargs.get("fun_name"))
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        metrics = jh.error_metrics(y, on_device)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    # Host arithmetic: a report's metrics compile nothing.
+    assert compiled == []
+    for name, fn in zip(metrics, [jh.rmse, jh.mad, jh.mrd, jh.mae, jh.nrmsd]):
+        assert metrics[name] == pytest.approx(float(fn(y, yhat)), rel=1e-13), name
+
+
+def test_error_metrics_keep_the_input_precision():
+    y32, yhat32 = Y.astype(np.float32), YHAT.astype(np.float32) + 1e-4
+    metrics = jh.error_metrics(y32, yhat32)
+    assert metrics["mae"] == float(np.mean(np.abs(y32 - yhat32)))
+
+
+def test_error_metrics_of_an_all_zero_measurement_are_inf_or_nan():
+    metrics = jh.error_metrics(np.zeros(3), np.ones(3))
+    assert metrics["mae"] == 1.0
+    assert np.isinf(metrics["mrd"]) and np.isinf(metrics["nrmsd"])

@@ -272,8 +272,8 @@ def test_a_second_process_identifies_without_tracing_the_fit(tmp_path):
     # (else this process would crash in the polish).
     assert _stored_lowered(second) == [], second["lowered"]
     # Nor any eager operation (a `jnp` call on host values, outside `jit`), each of
-    # which lowers a small program in every process: only the metrics' own `jit`.
-    assert set(second["lowered_in_fit"]) <= {"jit(_all)"}, second["lowered_in_fit"]
+    # which lowers a small program in every process (the metrics are NumPy's).
+    assert second["lowered_in_fit"] == [], second["lowered_in_fit"]
     assert _files(cache / "programs") == stored
     assert second["parameters"] == first["parameters"]
 

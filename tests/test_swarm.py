@@ -490,3 +490,23 @@ def test_the_compile_timer_counts_only_its_own_thread():
     with _CompileTimer() as timer:
         jax.jit(lambda x: jnp.cos(x) * 3.0 - 1.25).lower(jnp.ones(11)).compile()
     assert timer.seconds > 0.0
+
+
+def test_has_status_reads_a_result_on_the_host_without_compiling():
+    from jaxhyst._status import has_status
+
+    members = list(RESULTS._name_to_item.values())
+    compiled = []
+
+    def listen(event, duration, **kwargs):
+        if event.endswith("backend_compile_duration"):
+            compiled.append(kwargs.get("fun_name"))
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        table = [[has_status(a, b) for b in members] for a in members]
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert compiled == []
+    assert table == [[bool(a == b) for b in members] for a in members]
+    assert any(not x for row in table for x in row)

@@ -18,7 +18,7 @@ from .._report import (
     html_path,
     write_compensation_report,
 )
-from .._status import RESULTS
+from .._status import RESULTS, has_status
 from ._options import add_model_file_argument, column, load_model_file, warn
 from ._outputs import check_files, print_written
 
@@ -161,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
         solver=default_solver(loaded.model, reference),
         throw=False,
     )
-    if result.result == RESULTS.nonfinite:
+    if has_status(result.result, RESULTS.nonfinite):
         raise ValueError(
             "the model diverged while following the reference; check that the "
             "reference is in the model's output units and inside its stroke."

@@ -24,6 +24,7 @@ from .._report import (
 )
 from .._serialise import write_json
 from ..synthetic import demo_recording
+from ._choices import prng_key
 from ._outputs import FORCE, check_folder, diagnosis_model_file
 
 
@@ -77,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     check_folder("--out", out, (*_FILES, *_FIGURES.values()), args.force)
     require_matplotlib()
     start = time.perf_counter()
-    key = jax.random.key(args.seed)
+    key = prng_key(args.seed)
 
     case = demo_recording()
     recording = case.recording

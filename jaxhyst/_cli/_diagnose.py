@@ -5,8 +5,6 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-import jax
-
 from .._diagnose._diagnose import diagnose
 from .._diagnose._families import EFFECT_NAMES, DamperFamily
 from .._diagnose._policy import AdoptionPolicy
@@ -21,7 +19,7 @@ from .._report import (
     write_diagnosis_figures,
     write_diagnosis_report,
 )
-from ._choices import family
+from ._choices import family, prng_key
 from ._options import (
     add_recording_options,
     add_swarm_options,
@@ -195,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
 
     diagnosis = diagnose(
         recordings if len(recordings) > 1 else recording,
-        key=jax.random.key(args.seed),
+        key=prng_key(args.seed),
         family=chosen,
         policy=policy,
         swarm=swarm,

@@ -4,8 +4,6 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-import jax
-
 from .._evaluate import default_solver
 from .._identification._corrected import CORRECTED_STAGES, identify_corrected
 from .._identification._identify import Fit, identify
@@ -15,9 +13,9 @@ from .._opensees import opensees_json
 from .._plots import require_matplotlib
 from .._recording import Recording
 from .._report import FIT_FIGURES, fit_summary, write_fit_figures
-from .._status import RESULTS, status_name
+from .._status import RESULTS, has_status, status_name
 from .._swarm import MPSO
-from ._choices import FIT_MODELS, described
+from ._choices import FIT_MODELS, described, prng_key
 from ._options import (
     add_recording_options,
     add_swarm_options,
@@ -131,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     if folders:
         require_matplotlib()
 
-    key = jax.random.key(args.seed)
+    key = prng_key(args.seed)
     stages = None
     template = FIT_MODELS[args.model].template
     fit: Fit
@@ -148,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
             progress=True,
             throw=False,
         )
-    if fit.result == RESULTS.nonfinite:
+    if has_status(fit.result, RESULTS.nonfinite):
         raise ValueError(
             "the fitted model's output is not finite; try another --seed, a larger "
             "swarm, or check the recording."

@@ -30,7 +30,7 @@ from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
 from .._simulate import RK4
-from .._status import RESULTS
+from .._status import RESULTS, has_status
 from .._swarm import MPSO
 from .._threads import side_by_side
 from ._ambiguity import cannot_tell_rivals, confined, standing_in, unresolved
@@ -321,7 +321,7 @@ def _base_fit(
         )
         # A base fit that ran out of polish steps is refined by every later
         # refit; one whose output is not finite leaves nothing to diagnose.
-        if fit.result == RESULTS.nonfinite:
+        if has_status(fit.result, RESULTS.nonfinite):
             raise ValueError(
                 f"diagnose: the {ctx.family.base_name} base model's fit to "
                 f"{ctx.recording.name!r} diverged (non-finite output); check the "

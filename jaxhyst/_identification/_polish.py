@@ -16,7 +16,7 @@ from jaxtyping import Array, Float
 
 from .._arrays import device_array
 from .._program_store import stored_jit
-from .._status import RESULTS
+from .._status import RESULTS, has_status
 from .._xla_options import ELEMENTAL_EMITTERS
 from ._problem import Problem, problem_residuals, problem_rmse
 
@@ -43,7 +43,7 @@ class PolishResult(eqx.Module):
     @property
     def converged(self) -> bool:
         """Whether the polish met its stopping rule (`result` is successful)."""
-        return bool(self.result == RESULTS.successful)
+        return has_status(self.result, RESULTS.successful)
 
 
 class AbstractPolish(eqx.Module):
