@@ -56,6 +56,7 @@ compilation cache, do not point it at a folder that others can write.
 """
 
 import contextlib
+import contextvars
 import dataclasses
 import enum
 import functools
@@ -386,7 +387,10 @@ class _StoredJit(Generic[_P, _R]):
             # The function itself too: a lambda, a local function or a closure over
             # what cannot be pinned is not.
             function = _encode(self._fn, static=True)
-            key = "|".join([_environment(), function, _encode(arguments)])
+            # The options too: a function compiled with two sets of options (a
+            # one-shot and a usual one) keeps two programs, one per key.
+            options = f"options={self._compiler_options!r}"
+            key = "|".join([_environment(), function, options, _encode(arguments)])
         except _Unpinned:
             return None
         digest = hashlib.sha256(key.encode()).hexdigest()
@@ -898,15 +902,51 @@ def prefetching() -> Iterator[None]:
         run.finish()
 
 
+class _OneShotOrUsual(Generic[_P, _R]):
+    """A `stored_jit` with one-shot options: the function stored twice, compiled
+    with its usual options and with the one-shot ones added; a call (or a
+    `prepare`) takes the one its context asks for (`_xla_options.in_one_shot`)."""
+
+    def __init__(
+        self, fn: Callable[_P, _R], compiler_options: dict | None, one_shot: dict
+    ):
+        self.usual = _StoredJit(fn, compiler_options)
+        self.one_shot = _StoredJit(fn, {**(compiler_options or {}), **one_shot})
+        if self.one_shot._compiler_options == self.usual._compiler_options:
+            self.one_shot = self.usual  # `XLA_FLAGS` decides them: one program
+        functools.update_wrapper(self, fn)
+
+    def _now(self) -> _StoredJit[_P, _R]:
+        return self.one_shot if _xla_options.in_one_shot() else self.usual
+
+    def __call__(self, *args: _P.args, **kwargs: _P.kwargs) -> _R:
+        return self._now()(*args, **kwargs)
+
+    def prepare(self, *args: _P.args, **kwargs: _P.kwargs) -> None:
+        """`_StoredJit.prepare` of the program a call here would run."""
+        self._now().prepare(*args, **kwargs)
+
+
 def stored_jit(
-    fn: Callable[_P, _R] | None = None, *, compiler_options: dict | None = None
+    fn: Callable[_P, _R] | None = None,
+    *,
+    compiler_options: dict | None = None,
+    one_shot_options: dict | None = None,
 ) -> Any:
     """`eqx.filter_jit` whose traced programs are kept in the program store when it
     is on (see the module docstring); with the store off it is `eqx.filter_jit`.
     Use it as `@stored_jit` or `@stored_jit(compiler_options=...)` (XLA options for
-    the outermost jit; see `_xla_options` for those an XLA may not know)."""
+    the outermost jit; see `_xla_options` for those an XLA may not know).
+    `one_shot_options` are added in a `_xla_options.one_shot()` block: for programs
+    whose compilation costs more than the few runs a fit gives them."""
     if fn is None:
-        return functools.partial(stored_jit, compiler_options=compiler_options)
+        return functools.partial(
+            stored_jit,
+            compiler_options=compiler_options,
+            one_shot_options=one_shot_options,
+        )
+    if one_shot_options:
+        return _OneShotOrUsual(fn, compiler_options, one_shot_options)
     return _StoredJit(fn, compiler_options)
 
 
@@ -921,6 +961,7 @@ def preparing(prepare: Callable[[], None] | None) -> Iterator[None]:
         yield
         return
     with ThreadPoolExecutor(1, thread_name_prefix="jaxhyst-prepare") as pool:
-        done = pool.submit(prepare)
+        # In the caller's context: it prepares what the caller will call.
+        done = pool.submit(contextvars.copy_context().run, prepare)
         yield
         done.result()

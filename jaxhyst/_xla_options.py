@@ -10,10 +10,24 @@ predictions ran 10-35 % slower on 45 000-sample records. So only the programs th
 lose nothing ask for it (the polish, and small one-shot programs). Other backends
 ignore the option; an XLA that does not know it compiles without it; and where
 `XLA_FLAGS` names it, `XLA_FLAGS` decides.
+
+The swarm's loop and the identifiability Jacobian ask for it only in a *one-shot*
+run (`one_shot()`: `identify`, which runs each once), where their compilation is
+most of their cost (the swarm's loop: 1.2-1.5 s to compile, about 0.6 s to run in a
+fit). Work that runs them many times (a diagnosis's refits: `repeated_runs()`)
+compiles them with XLA's default, whose code runs faster; so does everything
+outside both blocks (`run_swarm` called on its own, as a benchmark does). The two
+are separate executables, each kept in the program store. The mode is a context
+variable: the threads jaxhyst starts for a block (`preparing`, `side_by_side`) run
+in a copy of their caller's context, and other threads start outside both.
 """
 
+import contextlib
+import contextvars
+import enum
 import functools
 import os
+from collections.abc import Iterator
 
 import jax
 
@@ -56,3 +70,41 @@ def _known(name: str, value: bool | int | float | str) -> bool:
             return False
         raise
     return True
+
+
+class _Runs(enum.Enum):
+    UNSAID = enum.auto()  # outside both blocks
+    ONE_SHOT = enum.auto()
+    REPEATED = enum.auto()
+
+
+_runs: contextvars.ContextVar[_Runs] = contextvars.ContextVar(
+    "jaxhyst_runs", default=_Runs.UNSAID
+)
+
+
+@contextlib.contextmanager
+def _running(mode: _Runs) -> Iterator[None]:
+    token = _runs.set(mode)
+    try:
+        yield
+    finally:
+        _runs.reset(token)
+
+
+def one_shot() -> contextlib.AbstractContextManager[None]:
+    """A block that runs its programs once (a fit): programs with one-shot options
+    (`stored_jit(one_shot_options=...)`) compile with them, unless the block is
+    inside `repeated_runs()` (a diagnosis's fits), which it leaves as it is."""
+    return _running(_Runs.REPEATED if _runs.get() is _Runs.REPEATED else _Runs.ONE_SHOT)
+
+
+def repeated_runs() -> contextlib.AbstractContextManager[None]:
+    """A block that runs the same programs many times (a diagnosis): they compile
+    with their usual options, one-shot blocks inside it included."""
+    return _running(_Runs.REPEATED)
+
+
+def in_one_shot() -> bool:
+    """Whether the caller is in a `one_shot()` block (and not in `repeated_runs()`)."""
+    return _runs.get() is _Runs.ONE_SHOT

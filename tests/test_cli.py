@@ -804,3 +804,16 @@ def test_seed_keys_are_jax_random_keys(seed):
     np.testing.assert_array_equal(
         jax.random.uniform(made, (3,)), jax.random.uniform(expected, (3,))
     )
+
+
+def test_seed_keys_without_64_bit_jax_are_jax_random_keys():
+    import jax
+
+    from jaxhyst._cli._choices import prng_key
+
+    with jax.enable_x64(False):
+        for seed in (3, -1):
+            np.testing.assert_array_equal(
+                jax.random.key_data(prng_key(seed)),
+                jax.random.key_data(jax.random.key(seed)),
+            )

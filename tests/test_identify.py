@@ -355,3 +355,43 @@ def test_polish_residuals_carry_the_forward_mode_jacobian():
     cotangent = jnp.ones(value.shape)
     (gradient,) = jax.vjp(lambda w: _residuals_jacfwd(w, problem), z)[1](cotangent)
     np.testing.assert_allclose(gradient, plain.T @ cotangent, rtol=1e-10, atol=1e-12)
+
+
+def test_a_fit_compiles_its_loop_and_jacobian_one_shot_and_a_diagnosis_does_not(
+    monkeypatch,
+):
+    # A fit runs its swarm's loop and its identifiability Jacobian once: they
+    # compile for a quick first answer; inside a diagnosis (`repeated_runs`) the
+    # same fit compiles them for speed of running.
+    from jaxhyst import _program_store, _xla_options
+    from jaxhyst._diagnose import _diagnose
+
+    chosen = []
+    now = _program_store._OneShotOrUsual._now
+
+    def watched(self):
+        program = now(self)
+        chosen.append((self.__name__, program is self.one_shot))
+        return program
+
+    monkeypatch.setattr(_program_store._OneShotOrUsual, "_now", watched)
+    recording, _ = _recording()
+    jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=SMALL_SWARM)
+    assert {"_run_chunk", "_jacobian"} <= {name for name, _ in chosen}
+    assert all(one_shot for _, one_shot in chosen), chosen
+    chosen.clear()
+    with _xla_options.repeated_runs():
+        jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=SMALL_SWARM)
+    assert chosen and not any(one_shot for _, one_shot in chosen), chosen
+    # `diagnose` runs its work in that block.
+    monkeypatch.setattr(
+        _diagnose, "_diagnose", lambda *args, **kwargs: _fit_mode_inside()
+    )
+    assert jh.diagnose(recording, key=jax.random.key(0)) == "usual"
+
+
+def _fit_mode_inside() -> str:
+    from jaxhyst import _xla_options
+
+    with _xla_options.one_shot():
+        return "one-shot" if _xla_options.in_one_shot() else "usual"

@@ -682,15 +682,81 @@ def test_the_polish_and_one_shot_programs_ask_for_the_elemental_emitters(
     monkeypatch,
 ):
     # Half the compile time of XLA:CPU's MLIR fusion emitters, and no slower to run
-    # (benchmarks/HISTORY.md, session 34); the swarm's loop, whose code ran slower
-    # with them, keeps XLA's default (the options reach XLA: the test above).
+    # (benchmarks/HISTORY.md, session 34); the swarm's loop and the identifiability
+    # Jacobian, whose code ran slower with them, ask for them only in a fit (the
+    # options reach XLA: the test above).
+    from jaxhyst._identification._identifiability import _jacobian
     from jaxhyst._identification._polish import _optimistix_loop
     from jaxhyst._identification._problem import model_at
-    from jaxhyst._swarm import _run_chunk, _sample_jit
+    from jaxhyst._swarm import _run_chunk
 
-    for program in (_optimistix_loop, model_at, _sample_jit):
+    for program in (_optimistix_loop, model_at):
         assert program._compiler_options == ELEMENTAL_EMITTERS
-    assert "xla_cpu_use_fusion_emitters" not in _run_chunk._compiler_options
+    for program in (_run_chunk, _jacobian):
+        assert "xla_cpu_use_fusion_emitters" not in program.usual._compiler_options
+        assert ELEMENTAL_EMITTERS.items() <= program.one_shot._compiler_options.items()
+
+
+_two_ways = stored_jit(_body, one_shot_options=_ASKED)
+
+
+def _chosen(program) -> str:
+    return "one-shot" if program._now() is program.one_shot else "usual"
+
+
+def test_one_shot_options_apply_in_a_one_shot_block_outside_repeated_runs(
+    monkeypatch,
+):
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    assert _chosen(_two_ways) == "usual"  # outside both: a benchmark's loop
+    with _xla_options.one_shot():
+        assert _chosen(_two_ways) == "one-shot"
+        with _xla_options.repeated_runs():
+            assert _chosen(_two_ways) == "usual"
+    with _xla_options.repeated_runs(), _xla_options.one_shot():
+        assert _chosen(_two_ways) == "usual"  # a diagnosis's fit
+    assert _chosen(_two_ways) == "usual"
+    assert _two_ways.one_shot._compiler_options == _ASKED
+    assert _two_ways.usual._compiler_options == {}
+
+
+def test_the_threads_of_a_block_run_in_its_mode():
+    from jaxhyst._program_store import preparing
+    from jaxhyst._threads import side_by_side
+
+    seen = []
+    with _xla_options.one_shot():
+        with preparing(lambda: seen.append(_xla_options.in_one_shot())):
+            pass
+        with side_by_side(lambda _: _xla_options.in_one_shot(), range(4)) as each:
+            seen.extend(each)
+    # A thread started outside the block starts outside it.
+    outside = []
+    thread = threading.Thread(target=lambda: outside.append(_xla_options.in_one_shot()))
+    with _xla_options.one_shot():
+        thread.start()
+        thread.join()
+    assert seen == [True] * 5 and outside == [False]
+
+
+def test_the_two_compilations_are_two_stored_programs(store, monkeypatch):
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    monkeypatch.setattr(_two_ways.usual, "_memo", {})
+    monkeypatch.setattr(_two_ways.one_shot, "_memo", {})
+    seen = _watch_compiler_options(monkeypatch)
+    usual = _two_ways(_model(), jnp.ones(3), 0.5)
+    with _xla_options.one_shot():
+        quick = _two_ways(_model(), jnp.ones(3), 0.5)
+    assert usual["y"] == quick["y"] == 6.5
+    assert {} in seen and _ASKED in seen
+    # One key each: neither executable replaces the other.
+    assert len(_files(store, "executable")) == 2
+
+
+def test_xla_flags_deciding_the_one_shot_options_leave_one_program(monkeypatch):
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_use_fusion_emitters=true")
+    program = stored_jit(_body, one_shot_options=ELEMENTAL_EMITTERS)
+    assert program.one_shot is program.usual
 
 
 def test_inside_a_transformation_a_call_compiles_with_no_options_of_its_own():

@@ -510,3 +510,36 @@ def test_has_status_reads_a_result_on_the_host_without_compiling():
     assert compiled == []
     assert table == [[bool(a == b) for b in members] for a in members]
     assert any(not x for row in table for x in row)
+
+
+def test_a_run_is_init_then_steps_with_the_halves_of_its_key():
+    # The first chunk draws the initial positions itself (no program of its own):
+    # from the first half of the key, the iterations from the second.
+    swarm = MPSO(num_particles=10, num_iterations=6)
+    key = jr.key(5)
+    result = run_swarm(sphere, *UNIT, swarm, key, chunk_size=4)
+    with jax.threefry_partitionable(False):
+        key_init, key_loop = jr.split(key)
+        state = swarm.init(sphere, *UNIT, key_init)
+        for k in range(swarm.num_iterations):
+            state = swarm.step(sphere, state, jr.fold_in(key_loop, k))
+    np.testing.assert_allclose(result.state.positions, state.positions, rtol=1e-12)
+    np.testing.assert_allclose(result.state.pbest, state.pbest, rtol=1e-12)
+
+
+def test_a_run_compiles_its_loop_and_nothing_else():
+    compiled = []
+
+    def listen(event, duration, **kwargs):
+        if event.endswith("backend_compile_duration"):
+            compiled.append(kwargs.get("fun_name"))
+
+    lower, upper = jax.block_until_ready((jnp.zeros(3), jnp.ones(3)))
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        run_swarm(
+            sphere, lower, upper, MPSO(num_particles=9, num_iterations=3), jr.key(0)
+        )
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert compiled == ["jit(_run_chunk)"], compiled

@@ -4,7 +4,7 @@ added here and nowhere else."""
 
 import importlib
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import jax
 import numpy as np
@@ -28,14 +28,13 @@ def prng_key(seed: int) -> jax.Array:
     bits as two 32-bit words, made here on the host: `jax.random.key` compiles two
     small programs for it, 0.07 s of a command's cold start. Other generators and
     seeds outside int64 go through `jax.random.key` (and its errors)."""
-    if (
-        jax.config.jax_enable_x64
-        and jax.config.jax_default_prng_impl == "threefry2x32"
-        and -(2**63) <= seed < 2**63
-    ):
+    config = jax.config  # its flags are attributes made at run time: `Any` here
+    x64: Any = config.jax_enable_x64  # pyright: ignore[reportAttributeAccessIssue]
+    impl: Any = config.jax_default_prng_impl  # pyright: ignore[reportAttributeAccessIssue]
+    if x64 and impl == "threefry2x32" and -(2**63) <= seed < 2**63:
         bits = int(seed) % 2**64  # two's complement, as JAX's seeding reads it
         words = np.array([bits >> 32, bits & 0xFFFFFFFF], dtype=np.uint32)
-        return jax.random.wrap_key_data(words, impl="threefry2x32")
+        return jax.random.wrap_key_data(jax.device_put(words), impl="threefry2x32")
     return jax.random.key(seed)
 
 

@@ -33,6 +33,7 @@ from .._simulate import RK4
 from .._status import RESULTS, has_status
 from .._swarm import MPSO
 from .._threads import side_by_side
+from .._xla_options import repeated_runs
 from ._ambiguity import cannot_tell_rivals, confined, standing_in, unresolved
 from ._effects.base import AbstractEffect, RefitScales
 from ._families import AbstractFamily, PiezoFamily
@@ -1645,7 +1646,9 @@ def diagnose(
         family.check(each)
     records = DiagnosisRecords.of(tuple(recordings), "diagnose")
     device = serial_device(device)
-    with running_on(device):
+    # Its refits run the same programs dozens of times: compiled for speed of
+    # running, not of compiling (`_xla_options.repeated_runs`).
+    with repeated_runs(), running_on(device):
         return _diagnose(
             records,
             moved_to(key, device),

@@ -33,6 +33,7 @@ from .._simulate import RK4, AbstractSimulationSolver
 from .._stability import stability_json
 from .._status import RESULTS, raise_unless_successful, status_message, status_name
 from .._swarm import MPSO, SwarmResult, run_swarm
+from .._xla_options import one_shot
 from ._identifiability import (
     Identifiability,
     identifiability_of,
@@ -415,8 +416,10 @@ def identify(
         _prepare_after_search, problem, analysed, polish, analyse
     )
     # The block ends after the polish: the analysis waits for its program to be
-    # ready rather than compile it a second time.
-    with preparing(prepare_later if device is None else None):
+    # ready rather than compile it a second time. A fit runs its programs once:
+    # those with one-shot options compile with them (`_xla_options`), unless this
+    # fit is one of a diagnosis's.
+    with one_shot(), preparing(prepare_later if device is None else None):
         seeds, swarm_result = starting_points(
             space,
             lambda: swarm_problem(problem, stride),
@@ -433,7 +436,7 @@ def identify(
             z, polish_result = refine(
                 [PolishStage("polish", problem, polish)], seeds, timing
             )
-    with running_on(device):
+    with one_shot(), running_on(device):
         fitted = model_at(problem.space, z)
         report = None
         if analyse:
