@@ -395,3 +395,31 @@ def _fit_mode_inside() -> str:
 
     with _xla_options.one_shot():
         return "one-shot" if _xla_options.in_one_shot() else "usual"
+
+
+def test_the_polish_program_scores_with_one_call_of_the_loss(monkeypatch):
+    # The start and every window are scored by one call site: a second one
+    # compiled the whole simulation again (0.4 s of the polish's 1 s compile).
+    from jaxhyst._identification import _polish
+
+    recording, _ = _recording(rate=100.0)
+    problem = _problem(recording)
+    polish = jh.LevenbergMarquardtPolish()
+    z0 = problem.space.from_model(TEMPLATE)
+    calls = []
+    scored = _polish.problem_rmse
+
+    def counted(*args):
+        calls.append(1)
+        return scored(*args)
+
+    monkeypatch.setattr(_polish, "problem_rmse", counted)
+    eqx.filter_make_jaxpr(_polish._optimistix_loop._fn)(
+        *polish._loop_arguments(problem, z0)
+    )
+    assert len(calls) == 1
+    monkeypatch.undo()
+    result = polish.run(problem, z0)
+    assert result.loss_history[0] == pytest.approx(
+        float(_polish.problem_rmse(problem, z0)), rel=1e-12
+    )

@@ -42,7 +42,14 @@ def _jacobian(model, names, outputs):
         )
         return outputs(new)
 
-    return jax.jacfwd(simulated)(values), simulated(values)
+    # One forward pass carries the outputs and a tangent per parameter (`jacfwd`
+    # and a separate call for the outputs traced and compiled the simulation twice).
+    def push(direction):
+        return jax.jvp(simulated, (values,), (direction,))
+
+    basis = jnp.eye(values.shape[0], dtype=values.dtype)
+    outputs_at, columns = jax.vmap(push, out_axes=(None, -1))(basis)
+    return columns, outputs_at
 
 
 def output_jacobian(

@@ -132,16 +132,17 @@ def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_
     # fixed across steps, as in optimistix's own loop.
     state, static_state = eqx.partition(state, eqx.is_array)
     windows = -(-max_steps // window)
-    start = problem_rmse(problem, z0)
-    history = jnp.full(windows + 1, jnp.nan).at[0].set(start)
+    history = jnp.full(windows + 1, jnp.nan)
     no = jnp.array(False)
+    # Window -1 takes no step: it scores the start, through the one call of the
+    # loss in the program (a second call would compile the simulation again).
     loop = _Loop(
         z0,
         state,
         jnp.array(0),
-        jnp.array(0),
+        jnp.array(-1),
         z0,
-        start,
+        jnp.array(jnp.inf, history.dtype),
         history,
         no,
         no,
@@ -156,7 +157,10 @@ def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_
         return z, eqx.filter(state, eqx.is_array), steps + 1, terminate, result
 
     def one_window(loop: _Loop) -> _Loop:
-        limit = jnp.minimum(loop.steps + window, max_steps)
+        first = loop.window_index < 0
+        limit = jnp.where(
+            first, loop.steps, jnp.minimum(loop.steps + window, max_steps)
+        )
 
         def keep_stepping(carry):
             _, _, steps, terminate, result = carry
@@ -179,13 +183,13 @@ def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_
             loop.history.at[loop.window_index + 1].set(loss),
             terminate,
             # A window that gained, but less than `min_gain`; one with no accepted
-            # step (a trust region still shrinking) is not a stall.
-            better & ~(loss < loop.best * (1 - min_gain)),
+            # step (a trust region still shrinking) is not a stall, nor the start.
+            ~first & better & ~(loss < loop.best * (1 - min_gain)),
             result,
         )
 
     def go_on(loop: _Loop):
-        return (
+        return (loop.window_index < 0) | (
             (loop.steps < max_steps)
             & ~loop.terminate
             & ~loop.stalled
