@@ -4,6 +4,7 @@ does with a damaged file. Fresh processes check the cross-process case."""
 
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -788,3 +789,20 @@ def test_an_optional_option_this_xla_does_not_know_is_left_out(monkeypatch):
     assert _xla_options.supported(ELEMENTAL_EMITTERS) == ELEMENTAL_EMITTERS
     own = stored_jit(_body, compiler_options=unknown)
     assert own(_model(), jnp.ones(3), 0.5)["y"] == 6.5
+
+
+def test_programs_calling_lapack_are_told_apart_from_their_serialized_module():
+    # A loaded executable that calls LAPACK needs jaxlib's kernels set up first.
+    from jax import export
+
+    x = jnp.ones((4, 3))
+    solving = export.export(jax.jit(lambda a: jnp.linalg.qr(a)[1]))(x)
+    plain = export.export(jax.jit(lambda a: jnp.sin(a) @ a.T))(x)
+    assert _program_store._uses_lapack(solving)
+    assert not _program_store._uses_lapack(plain)
+    # The same answer as reading the printed module.
+    for exported in (solving, plain):
+        printed = set(re.findall(r"custom_call @(\w+)", exported.mlir_module()))
+        assert bool(printed & _program_store._LAPACK_TARGETS) == (
+            _program_store._uses_lapack(exported)
+        )
