@@ -62,6 +62,7 @@ import enum
 import functools
 import hashlib
 import importlib.metadata
+import math
 import os
 import pickle
 import platform
@@ -80,7 +81,10 @@ from typing import Any, Generic, NamedTuple, ParamSpec, TypeVar
 import equinox as eqx
 import jax
 import numpy as np
-from jax._src import core as _jax_core  # trace_state_clean: no public equivalent
+from jax._src import (
+    config as _jax_config,  # a thread-local cache setting
+    core as _jax_core,  # trace_state_clean: no public equivalent
+)
 from jax.core import Tracer
 from jax.experimental import serialize_executable
 
@@ -473,7 +477,8 @@ class _StoredJit(Generic[_P, _R]):
             compiler_options=self._xla_compiler_options,
         )
         hits = _compilation_cache_hits()
-        compiled = run.lower(*arrays).compile()
+        with _not_written_to_jax_cache():
+            compiled = run.lower(*arrays).compile()
         if _compilation_cache_hits() == hits:
             # Not read back from JAX's compilation cache: XLA:CPU serializes such
             # an executable without its kernels, and it would fail when run.
@@ -637,6 +642,16 @@ def _initialize_lapack() -> None:
 
             lapack._lapack.initialize()  # pyright: ignore[reportPrivateImportUsage]
             _lapack_ready = True
+
+
+def _not_written_to_jax_cache() -> contextlib.AbstractContextManager:
+    """In this thread, JAX's persistent compilation cache writes nothing (it still
+    serves what it holds): the store keeps the executable it compiles, and a second
+    copy in JAX's cache cost 0.12 s of the swarm's loop in a cold fit, compressed
+    and written for nothing. JAX has no public switch for one compilation; its
+    minimum compile time, set to infinity, is one (thread-local)."""
+    state = getattr(_jax_config, "persistent_cache_min_compile_time_secs", None)
+    return contextlib.nullcontext() if state is None else state(math.inf)
 
 
 _CACHE_HIT = "/jax/compilation_cache/cache_hits"

@@ -279,20 +279,38 @@ def test_a_second_process_identifies_without_tracing_the_fit(tmp_path):
     assert second["parameters"] == first["parameters"]
 
 
-def test_an_executable_read_back_from_jax_compilation_cache_is_not_kept(tmp_path):
-    # Without its executables, a process lowers the stored programs again and
-    # JAX's compilation cache serves them; XLA:CPU serializes such an executable
-    # without its kernels, and a third process that loaded it would fail ("Function
-    # ... not found"). It is compiled again by the next process instead.
+def test_stored_programs_are_not_written_to_jax_compilation_cache_too(tmp_path):
+    # The store keeps their executables: a second copy in JAX's cache would be
+    # compressed and written for nothing. Without its executables, a process
+    # compiles the stored programs again and keeps them.
     cache = tmp_path / "cache"
     first = _identify_in_child(cache)
+    in_jax_cache = [p.name for p in cache.glob("jit_stored_program_*")]
+    assert in_jax_cache == [] and _files(cache / "programs", "executable")
     for path in _files(cache / "programs", "executable"):
         path.unlink()
     second = _identify_in_child(cache)
-    assert _files(cache / "programs", "executable") == []
     assert len(_stored_lowered(second)) == len(_files(cache / "programs"))
+    assert [p.stem for p in _files(cache / "programs", "executable")] == [
+        p.stem for p in _files(cache / "programs")
+    ]
     third = _identify_in_child(cache)
+    assert _stored_lowered(third) == []
     assert first["parameters"] == second["parameters"] == third["parameters"]
+
+
+def test_an_executable_read_back_from_jax_compilation_cache_is_not_kept(
+    store, monkeypatch
+):
+    # XLA:CPU serializes an executable that JAX's compilation cache gave back
+    # without its kernels: a process that loaded it would fail ("Function ... not
+    # found"). So one that the cache served (an older jaxhyst wrote it there) is
+    # not kept; the next process compiles it again.
+    monkeypatch.setattr(_stored, "_memo", {})
+    counts = iter([0, 1])
+    monkeypatch.setattr(_program_store, "_compilation_cache_hits", lambda: next(counts))
+    assert _stored(_model(), jnp.ones(3), 0.5)["y"] == 6.5
+    assert _files(store) and _files(store, "executable") == []
 
 
 def test_a_damaged_or_foreign_executable_is_compiled_again_and_replaced(store):
