@@ -80,8 +80,17 @@ def warm_bytecode(env: dict[str, str]) -> None:
 
 
 def cache_size(folder) -> tuple[int, int]:
-    """JAX's compilation-cache entries in `folder`: how many, and their bytes."""
+    """What `JAXHYST_CACHE_DIR=folder` holds: JAX's compilation-cache entries and
+    the program store's files (`programs/`: traced programs and their executables,
+    which JAX's cache does not also keep), how many and their bytes."""
     entries = [e for e in os.scandir(folder) if e.name.endswith("-cache")]
+    programs = os.path.join(folder, "programs")
+    if os.path.isdir(programs):
+        entries += [
+            e
+            for e in os.scandir(programs)
+            if e.name.endswith((".program", ".executable"))
+        ]
     return len(entries), sum(e.stat().st_size for e in entries)
 
 
