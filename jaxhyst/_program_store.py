@@ -15,9 +15,10 @@ Beside each program the store keeps its compiled executable (`.executable`,
 `jax.experimental.serialize_executable`), keyed further by the XLA flags, the
 compiler options and the host processor's model and features (XLA:CPU compiles for
 the processor it runs on): a later process on the same machine loads it as it is,
-skipping the lowering and the compilation-cache lookup as well. Only an executable
-XLA compiled in this process is kept: one that JAX's compilation cache handed back
-(a program compiled under the same text before, with its executable since lost)
+skipping the lowering and the compilation-cache lookup as well. JAX's compilation
+cache does not keep a second copy of these executables (writing it cost more than a
+tenth of a second of a cold fit). Only an executable XLA compiled in this process is
+kept: one that JAX's compilation cache handed back (an older jaxhyst wrote it there)
 does not serialize faithfully on XLA:CPU (its kernels are missing when it runs), so
 such a program is compiled through its export again by the next process instead.
 

@@ -2,6 +2,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import lowered_while
 
 import jaxhyst as jh
 
@@ -80,19 +81,9 @@ def test_error_metrics_match_the_measures_without_compiling():
     y = np.sin(np.linspace(0, 7, 1001))
     yhat = y + 1e-3 * np.cos(np.linspace(0, 50, 1001))
     on_device = jax.block_until_ready(jnp.asarray(yhat))
-    compiled = []
-
-    def listen(event, duration, **kwargs):
-        if event.endswith("backend_compile_duration"):
-            compiled.append(kwargs.get("fun_name"))
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    try:
-        metrics = jh.error_metrics(y, on_device)
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listen)
+    metrics, lowered = lowered_while(lambda: jh.error_metrics(y, on_device))
     # Host arithmetic: a report's metrics compile nothing.
-    assert compiled == []
+    assert lowered == []
     for name, fn in zip(metrics, [jh.rmse, jh.mad, jh.mrd, jh.mae, jh.nrmsd]):
         assert metrics[name] == pytest.approx(float(fn(y, yhat)), rel=1e-13), name
 

@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 import pytest
+from helpers import lowered_while
 
 from jaxhyst._status import RESULTS, status_name
 from jaxhyst._swarm import MPSO, SwarmState, run_swarm
@@ -496,18 +497,10 @@ def test_has_status_reads_a_result_on_the_host_without_compiling():
     from jaxhyst._status import has_status
 
     members = list(RESULTS._name_to_item.values())
-    compiled = []
-
-    def listen(event, duration, **kwargs):
-        if event.endswith("backend_compile_duration"):
-            compiled.append(kwargs.get("fun_name"))
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    try:
-        table = [[has_status(a, b) for b in members] for a in members]
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listen)
-    assert compiled == []
+    table, lowered = lowered_while(
+        lambda: [[has_status(a, b) for b in members] for a in members]
+    )
+    assert lowered == []
     assert table == [[bool(a == b) for b in members] for a in members]
     assert any(not x for row in table for x in row)
 
@@ -528,18 +521,9 @@ def test_a_run_is_init_then_steps_with_the_halves_of_its_key():
 
 
 def test_a_run_compiles_its_loop_and_nothing_else():
-    compiled = []
-
-    def listen(event, duration, **kwargs):
-        if event.endswith("backend_compile_duration"):
-            compiled.append(kwargs.get("fun_name"))
-
     lower, upper = jax.block_until_ready((jnp.zeros(3), jnp.ones(3)))
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    try:
-        run_swarm(
-            sphere, lower, upper, MPSO(num_particles=9, num_iterations=3), jr.key(0)
-        )
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listen)
-    assert compiled == ["jit(_run_chunk)"], compiled
+    swarm = MPSO(num_particles=9, num_iterations=3)
+    _, lowered = lowered_while(
+        lambda: run_swarm(sphere, lower, upper, swarm, jr.key(0))
+    )
+    assert lowered == ["jit(_run_chunk)"], lowered
