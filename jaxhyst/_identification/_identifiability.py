@@ -28,8 +28,8 @@ LOADING = 0.1
 EXACT = 1e-10
 
 
-# In a fit (`one_shot`) the elemental emitters: a third less compile time, for a
-# program a fit runs once (`_xla_options`).
+# In a fit (`one_shot`) the elemental emitters: 0.24 s to compile against 0.42 s
+# (session 35), for a program a fit runs once (`_xla_options`).
 @stored_jit(one_shot_options=ELEMENTAL_EMITTERS)
 def _jacobian(model, names, outputs):
     values = jnp.stack([jnp.asarray(getattr(model, n), float) for n in names])
