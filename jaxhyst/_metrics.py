@@ -99,10 +99,7 @@ def error_metrics(
     """
     pair = _pair("error_metrics", y, yhat, np)
     with np.errstate(divide="ignore", invalid="ignore"):  # y == 0: inf or nan
-        return {
-            "rmse": float(_rmse(np, *pair)),
-            "mad": float(_mad(np, *pair)),
-            "mrd": float(_mrd(np, *pair)),
-            "mae": float(_mae(np, *pair)),
-            "nrmsd": float(_nrmsd(np, *pair)),
-        }
+        return {name: float(measure(np, *pair)) for name, measure in _MEASURES.items()}
+
+
+_MEASURES = {"rmse": _rmse, "mad": _mad, "mrd": _mrd, "mae": _mae, "nrmsd": _nrmsd}

@@ -487,10 +487,9 @@ class _StoredJit(Generic[_P, _R]):
         return _Program(compiled, found.skeleton)
 
     def _executable_key(self, key: str) -> str:
-        """`key` plus what compiling depends on beyond tracing."""
-        return "|".join(
-            [key, _compile_environment(), f"options={self._compiler_options!r}"]
-        )
+        """`key` (which names the compiler options) plus what else compiling depends
+        on beyond tracing."""
+        return "|".join([key, _compile_environment()])
 
     def _load_executable(self, store: Path, keyed: _Keyed) -> "_Program | None":
         """The executable an earlier process compiled, or `None` (not there,
@@ -828,10 +827,10 @@ class _Prefetch:
 
     def _load_ahead(self, digests: list[str]) -> None:
         environment = _environment() + "|"
-        compiling = f"|{_compile_environment()}|options="
+        compiling = f"|{_compile_environment()}"  # `_executable_key`'s end
 
         def wanted(key: str) -> bool:
-            return key.startswith(environment) and compiling in key
+            return key.startswith(environment) and key.endswith(compiling)
 
         for digest in digests:
             if self.stop.is_set():

@@ -472,16 +472,16 @@ def _unsampled(swarm: MPSO, lower: Array, upper: Array) -> SwarmState:
     (eq. 14) in its own program, so that a run compiles no program of its own for
     them (0.3-0.5 s of a cold fit)."""
     dtype = np.dtype(lower.dtype)
-    rows = np.zeros((swarm.num_particles, lower.shape[0]), dtype)
-    unknown = np.full((swarm.num_particles,), np.inf, dtype)
+    rows = device_array(np.zeros((swarm.num_particles, lower.shape[0]), dtype))
+    unknown = device_array(np.full((swarm.num_particles,), np.inf, dtype))
     return SwarmState(
-        positions=device_array(rows),
-        velocities=device_array(rows),
-        fitness=device_array(unknown),
-        pbest=device_array(rows),
-        pbest_fitness=device_array(unknown),
-        gbest=device_array(rows[0]),
-        gbest_fitness=device_array(unknown[0]),
+        positions=rows,
+        velocities=rows,
+        fitness=unknown,
+        pbest=rows,
+        pbest_fitness=unknown,
+        gbest=device_array(np.zeros(lower.shape[0], dtype)),
+        gbest_fitness=device_array(np.asarray(np.inf, dtype)),
         iteration=device_array(np.asarray(_UNSAMPLED, np.int32)),
         lower=lower,
         upper=upper,
