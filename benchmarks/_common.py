@@ -28,7 +28,9 @@ from typing import Any
 
 START = time.perf_counter()
 CORE_PACKAGES = ("jaxhyst", "jax", "jaxlib", "numpy", "equinox", "optimistix")
-DATA_DIR_DEFAULT = "jh.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data"
+DATA_DIR_DEFAULT = (
+    "jh.datasets.default_data_dir(), i.e. $JAXHYST_DATA_DIR or ../shared/data"
+)
 
 
 # ------------------------------------------------------------ the command line
@@ -80,17 +82,9 @@ def warm_bytecode(env: dict[str, str]) -> None:
 
 
 def cache_size(folder) -> tuple[int, int]:
-    """What `JAXHYST_CACHE_DIR=folder` holds: JAX's compilation-cache entries and
-    the program store's files (`programs/`: traced programs and their executables,
-    which JAX's cache does not also keep), how many and their bytes."""
+    """What `JAXHYST_CACHE_DIR=folder` holds: JAX's compilation-cache entries, how
+    many and their bytes."""
     entries = [e for e in os.scandir(folder) if e.name.endswith("-cache")]
-    programs = os.path.join(folder, "programs")
-    if os.path.isdir(programs):
-        entries += [
-            e
-            for e in os.scandir(programs)
-            if e.name.endswith((".program", ".executable"))
-        ]
     return len(entries), sum(e.stat().st_size for e in entries)
 
 
@@ -208,7 +202,7 @@ def data_dir(value: str | None) -> Path:
         return Path(value)
     import jaxhyst as jh
 
-    return jh.default_data_dir()
+    return jh.datasets.default_data_dir()
 
 
 def add_figures(parser: argparse.ArgumentParser, out: str):

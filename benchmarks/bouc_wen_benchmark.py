@@ -10,7 +10,7 @@ are synthetic: 750 Hz, force [N] -> displacement [m].
    The first period holds the start-up transient and is dropped; the other four are
    averaged (for a model in steady state this has the same least-squares minimiser
    as fitting all four, at a quarter of the simulation cost, and their spread gives
-   the noise). `jh.fit_periodic` then runs
+   the noise). `jh.periodic.fit_periodic` then runs
    - MPSO (64 particles, up to 150 iterations) in a log-scaled box set by the data's
      scales (`jh.ParameterSpace.default`), on the first 2 s of the period after a 1 s
      warm-up, input cubic-interpolated at 750 Hz, RK4 with 2 substeps;
@@ -87,7 +87,7 @@ def parse_args(argv=None):
 
 def load(data_dir):
     try:
-        return jh.load_bouc_wen_benchmark(data_dir=data_dir)
+        return jh.datasets.load_bouc_wen_benchmark(data_dir=data_dir)
     except (FileNotFoundError, ImportError) as error:
         raise SystemExit(
             f"bouc_wen_benchmark: cannot load the benchmark data.\n{error}"
@@ -107,12 +107,12 @@ _simulate = eqx.filter_jit(jh.simulate)
 def identify(bench, seed: int, repeats: int):
     """Fold the training record and fit `repeats` times (the first run compiles);
     returns (fit, average, space, seconds per run: swarm start to fitted model)."""
-    average = jh.average_periods(bench.train, PERIOD, skip=1)
+    average = jh.periodic.average_periods(bench.train, PERIOD, skip=1)
     template = jh.HystereticOscillator(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, nu=1.0)
     space = jh.ParameterSpace.default(template, average.recording)
     seconds, fit = [], None
     for run in range(max(1, repeats)):
-        fit = jh.fit_periodic(
+        fit = jh.periodic.fit_periodic(
             template,
             average.recording,
             key=jax.random.key(seed),
@@ -131,7 +131,7 @@ def identify(bench, seed: int, repeats: int):
 
 
 def multisine_output(model, u, periods_before: int = 2, upsample: int = 4):
-    simulation = jh.PeriodicSimulation(
+    simulation = jh.periodic.PeriodicSimulation(
         warmup=periods_before * PERIOD / RATE,
         upsample=upsample,
         solver=jh.RK4(substeps=2),
@@ -147,7 +147,7 @@ def sweep_output(model, recording, interpolation=None, substeps: int = 20):
 def train_from_rest(model, train, upsample: int = 4):
     """The whole training record simulated from rest (the input repeats exactly, so
     the record is one period of a band-limited periodic signal)."""
-    fine = jh.bandlimited_upsample(train.u, upsample)
+    fine = jh.periodic.bandlimited_upsample(train.u, upsample)
     path = jh.InputPath(
         0.0,
         train.dt / upsample,
@@ -181,7 +181,7 @@ def floors(bench) -> dict:
         0.0, 1 / RATE, np.concatenate([np.tile(ms.u, 3), ms.u[:1]])
     )
     linear = np.asarray(_simulate(truth, linear_path, jh.RK4(substeps=20)))
-    cubic = jh.PeriodicSimulation(
+    cubic = jh.periodic.PeriodicSimulation(
         warmup=2 * PERIOD / RATE, upsample=1, solver=jh.RK4(substeps=20)
     )(truth, ms.u, 1 / RATE)
     return {
@@ -263,7 +263,7 @@ def figures(out: Path, bench, fit, evaluation, truth_sweep, diag) -> list[str]:
     save(figure, "sinesweep_error.png")
 
     # The identified restoring force z against y over the multisine test period.
-    simulation = jh.PeriodicSimulation(warmup=2 * PERIOD / RATE)
+    simulation = jh.periodic.PeriodicSimulation(warmup=2 * PERIOD / RATE)
     path = simulation.path(ms.u, 1 / RATE)
     _, states = _simulate(fit.model, path, simulation.solver, return_state=True)
     first = int(simulation.scored(path, PERIOD)[0])

@@ -69,7 +69,7 @@ def references(y_lo: float, y_hi: float) -> dict[str, tuple[np.ndarray, np.ndarr
 
 
 def corrected_fit(recording, key):
-    return jh.identify_corrected(recording, key=key)[0].model
+    return jh.identification.identify_corrected(recording, key=key)[0].model
 
 
 def tracking(t, y, reference, stroke):

@@ -1,7 +1,7 @@
 """Benchmark: does the MR damper diagnosis find concealed effects, and only those?
 
-Runs `jaxhyst.diagnose(..., family=jaxhyst.DamperFamily())` on the synthetic
-damper suite (`jaxhyst.synthetic.damper_recording`): white-noise characterisation
+Runs `jaxhyst.diagnose(..., family=jaxhyst.families.DamperFamily())` on the
+synthetic damper suite (`jaxhyst.synthetic.damper_recording`): white-noise characterisation
 tests like Dyke's (random displacement and a random piecewise-constant command,
 3004.8 Hz, x in cm, command in V, F in N) with field_dependence, rolloff, offset and
 asymmetry each alone, the pairs (field_dependence, driver_lag) [a lag needs a field
@@ -49,7 +49,7 @@ import jaxhyst as jh  # noqa: E402
 from jaxhyst.synthetic import damper_recording  # noqa: E402
 
 
-EFFECTS = jh.DAMPER_EFFECT_NAMES
+EFFECTS = jh.families.DAMPER_EFFECT_NAMES
 SINGLES = (("field_dependence",), ("rolloff",), ("offset",), ("asymmetry",))
 PAIRS = (
     ("field_dependence", "driver_lag"),
@@ -91,7 +91,7 @@ def run_case(spec, index, args) -> dict[str, Any]:
         lambda: jh.diagnose(
             case.recording,
             key=diagnose_key,
-            family=jh.DamperFamily(),
+            family=jh.families.DamperFamily(),
             progress=args.progress,
         ),
     )

@@ -249,7 +249,8 @@ def short_swarm(rec, space, key):
 def run_polish_after(fit, polish, step_cost, chunk, rec, problem, samples):
     """The shared swarm's trace, then `polish` from its best."""
     trace = Trace(samples)
-    k = jh.swarm_samples_per_step(rec.u)  # identify's default swarm RK4 step
+    # identify's default swarm RK4 step
+    k = jh.identification.swarm_samples_per_step(rec.u)
     rk4_steps = -(-(rec.num_samples - 1) // k)
     add_swarm(trace, fit.swarm, rk4_steps + 1, full=k == 1)
     result = polish.run(problem, fit.swarm.best_x)
@@ -477,7 +478,9 @@ def main(argv=None):
         )
         rec = data["recording"]
         space = search_space(template, rec)
-        problem = jh.Problem(space, rec.input_path(), jnp.asarray(rec.y), jh.RK4())
+        problem = jh.identification.Problem(
+            space, rec.input_path(), jnp.asarray(rec.y), jh.RK4()
+        )
         seeds.append((seed, k_method, data, rec, space, problem))
     d = seeds[0][4].dimension
     samples = seeds[0][3].num_samples

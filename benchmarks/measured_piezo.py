@@ -73,7 +73,7 @@ def parse_args(argv=None):
 
 def load(data_dir):
     try:
-        return jh.load_piezo_actuator(data_dir=data_dir)
+        return jh.datasets.load_piezo_actuator(data_dir=data_dir)
     except FileNotFoundError as error:
         raise SystemExit(
             f"measured_piezo: cannot load the piezo record.\n{error}"

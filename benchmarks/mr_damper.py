@@ -1,12 +1,12 @@
 """Benchmark: the MR damper family on Dyke's measured white-noise tests.
 
 Two white-noise characterisation tests of a prototype MR damper (S. Dyke,
-NEES-2012-1158; `jh.load_mr_damper`): displacement [cm] and command [V] -> force
-[N] at 3004.8 Hz, "ranran_50" (24.6 s) and "ransim_u" (20.0 s). For each direction
+NEES-2012-1158; `jh.datasets.load_mr_damper`): displacement [cm] and command [V] ->
+force [N] at 3004.8 Hz, "ranran_50" (24.6 s) and "ransim_u" (20.0 s). For each direction
 (fit on one record, validate on the other) this script
 
-1. diagnoses the fit record with `jh.DamperFamily()` (its default adoption policy,
-   or `--min-heldout-gain`): a Bouc-Wen damper of fixed field, then the effects the
+1. diagnoses the fit record with `jh.families.DamperFamily()` (its default adoption
+   policy, or `--min-heldout-gain`): a Bouc-Wen damper of fixed field, then the effects the
    record shows beyond it, each adopted only when it lowers the error on the fit
    record's held-out blocks;
 2. simulates every model the diagnosis moved to (`Diagnosis.steps`: the base, each
@@ -79,7 +79,7 @@ def spencer_errors(recording: jh.Recording, predicted: np.ndarray) -> dict[str, 
 
 
 def load(name: str, args) -> jh.Recording:
-    recording = jh.load_mr_damper(name, data_dir=args.data_dir)
+    recording = jh.datasets.load_mr_damper(name, data_dir=args.data_dir)
     if args.seconds is not None:
         recording = recording.segment(None, float(recording.t[0]) + args.seconds)
     return recording
@@ -128,13 +128,14 @@ def run_direction(fit_name: str, records: dict, anchor: dict, args) -> dict:
     policy = None
     if args.min_heldout_gain is not None:
         policy = dataclasses.replace(
-            jh.DamperFamily().default_policy(), min_heldout_gain=args.min_heldout_gain
+            jh.families.DamperFamily().default_policy(),
+            min_heldout_gain=args.min_heldout_gain,
         )
     start = time.perf_counter()
     diagnosis = jh.diagnose(
         fit,
         key=jax.random.key(args.seed),
-        family=jh.DamperFamily(),
+        family=jh.families.DamperFamily(),
         policy=policy,
         progress=args.progress,
     )

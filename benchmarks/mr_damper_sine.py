@@ -1,15 +1,15 @@
 """Benchmark: the MR damper family on measured sine tests without a recorded command.
 
-The Labcontrol shaking-table tests (`jh.load_mr_damper_sine`; UTFPR, MIT licence):
-displacement [mm] -> force [N] at 100 Hz, one sine each (0.8-1.2 Hz, 11-25 mm).
+The Labcontrol shaking-table tests (`jh.datasets.load_mr_damper_sine`; UTFPR, MIT
+licence): displacement [mm] -> force [N] at 100 Hz, one sine each (0.8-1.2 Hz, 11-25 mm).
 The series "ensaio1.1" ... "ensaio10.1" ran one after another with the table's
 amplitude stepped down and its frequency up; the damper's setting is not in the
 log, and nothing suggests it changed within the series, so the tests are treated
 as one damper at one field: the command is added as a constant
 (`rec.with_input("command", 0.0, unit="V")`, an unknown level).
 
-1. Diagnoses `--fit` tests together (`jh.diagnose([...], family=jh.DamperFamily())`:
-   one model, each test simulated from rest, held-out blocks in each).
+1. Diagnoses `--fit` tests together
+   (`jh.diagnose([...], family=jh.families.DamperFamily())`: one model, each test simulated from rest, held-out blocks in each).
 2. Simulates every step's model on the `--validate` tests (not fitted) and reports
    each step's RMSE there.
 3. Says what sine tests at one field cannot separate: the diagnosis's
@@ -40,7 +40,7 @@ VALIDATE = ("ensaio2.1", "ensaio5.1", "ensaio9.1")
 
 
 def load(name: str, data_dir) -> jh.Recording:
-    return jh.load_mr_damper_sine(name, data_dir=data_dir).with_input(
+    return jh.datasets.load_mr_damper_sine(name, data_dir=data_dir).with_input(
         "command", 0.0, unit="V"
     )
 
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
     diagnosis = jh.diagnose(
         fit,
         key=jax.random.key(args.seed),
-        family=jh.DamperFamily(),
+        family=jh.families.DamperFamily(),
         progress=args.progress,
     )
     seconds = time.perf_counter() - start

@@ -285,7 +285,7 @@ def paper_recording(signal, *, key, rate=1000.0, noise=1e-3, phi=0.0, eps=0.0, n
         "base_truth": base,
         "clean": np.asarray(clean),
         "sigma": sigma,
-        "truth_rmse": float(jh.rmse(y, clean)),
+        "truth_rmse": float(jh.metrics.rmse(y, clean)),
     }
 
 
@@ -358,7 +358,9 @@ def seconds_per_iteration(space, recording, particles, stride, key):
     """Measured cost of one swarm iteration: the whole swarm evaluated once (vmapped,
     compiled first, then timed twice; the faster of the two)."""
     data = decimated(recording, stride)
-    problem = jh.Problem(space, data.input_path(), jnp.asarray(data.y), jh.RK4())
+    problem = jh.identification.Problem(
+        space, data.input_path(), jnp.asarray(data.y), jh.RK4()
+    )
     z = jax.random.uniform(key, (particles, space.dimension))
     _swarm_batch(problem, z).block_until_ready()
     times = []

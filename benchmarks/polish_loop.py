@@ -91,7 +91,7 @@ def main() -> None:
             throw=False,
         )
         space = jh.ParameterSpace.default(template, recording)
-        problem = jh.Problem(
+        problem = jh.identification.Problem(
             space, recording.input_path(), jnp.asarray(recording.y), jh.RK4()
         )
         z0 = space.from_model(swarm_only.model)

@@ -1,7 +1,7 @@
 """Benchmark: does the structural diagnosis find concealed effects, and only those?
 
-Runs `jaxhyst.diagnose(..., family=jaxhyst.StructuralFamily())` on the synthetic
-structural suite (`jaxhyst.synthetic.structural_recording`): quasi-static
+Runs `jaxhyst.diagnose(..., family=jaxhyst.families.StructuralFamily())` on the
+synthetic structural suite (`jaxhyst.synthetic.structural_recording`): quasi-static
 tests of a Bouc-Wen element (x in mm, F in kN, pseudo time t = sample index) with
 each of the four effects alone under white and coloured noise, the pairs
 (degradation, pinching) [the common one in real tests], (degradation, asymmetry) and
@@ -55,21 +55,24 @@ RESIDUAL_FACTOR = 1.3
 
 
 def _diagnose_function():
-    """`jaxhyst.diagnose` and `jaxhyst.StructuralFamily`, looked up lazily: the
+    """`jaxhyst.diagnose` and `jaxhyst.families.StructuralFamily`, looked up lazily: the
     structural diagnosis may not exist yet in this checkout."""
     diagnose = getattr(jh, "diagnose", None)
-    family = getattr(jh, "StructuralFamily", None)
+    family = getattr(jh.families, "StructuralFamily", None)
     if diagnose is None or family is None:
         missing = [
             name
-            for name, found in (("diagnose", diagnose), ("StructuralFamily", family))
+            for name, found in (
+                ("diagnose", diagnose),
+                ("families.StructuralFamily", family),
+            )
             if found is None
         ]
         raise SystemExit(
             f"structural_suite: jaxhyst.{' and jaxhyst.'.join(missing)} not available "
             "in this checkout (the structural diagnosis, jh.diagnose(recording, *, "
-            "key, family=jh.StructuralFamily()) -> Diagnosis, is not there yet). Run "
-            "with --dry-run to exercise the synthetic suite alone."
+            "key, family=jh.families.StructuralFamily()) -> Diagnosis, is not there "
+            "yet). Run with --dry-run to exercise the synthetic suite alone."
         )
     return diagnose, family
 

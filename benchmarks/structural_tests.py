@@ -1,11 +1,11 @@
 """The structural diagnosis on real quasi-static cyclic tests: every record of
-`jh.STRUCTURAL_TESTS` (RC columns and walls, a CLT rocking wall, a steel-plate
+`jh.datasets.STRUCTURAL_TESTS` (RC columns and walls, a CLT rocking wall, a steel-plate
 connection; imposed displacement -> restoring force).
 
 For each record this script
 
-1. runs `jh.diagnose(recording, key=..., family=jh.StructuralFamily())`: a plain
-   Bouc-Wen base fitted on part of the cycles, effects (degradation, pinching,
+1. runs `jh.diagnose(recording, key=..., family=jh.families.StructuralFamily())`: a
+   plain Bouc-Wen base fitted on part of the cycles, effects (degradation, pinching,
    asymmetry, drift) adopted only if they lower the error on held-out whole cycles;
 2. fits the plain Bouc-Wen model with `jh.identify` on the same fitted samples (the
    family's base template, bounds and solver), as a cross-check of the diagnosis's
@@ -48,7 +48,7 @@ import jaxhyst as jh  # noqa: E402
 
 
 try:  # re-exported by jaxhyst once the structural loaders land in __init__
-    from jaxhyst import STRUCTURAL_TESTS, load_structural_test  # noqa: E402
+    from jaxhyst.datasets import STRUCTURAL_TESTS, load_structural_test  # noqa: E402
 except ImportError:
     from jaxhyst._datasets import STRUCTURAL_TESTS, load_structural_test  # noqa: E402
 
@@ -108,10 +108,10 @@ def parse_args(argv=None):
 
 def structural_api():
     """`(diagnose, StructuralFamily)`, or exit saying what is missing."""
-    family = getattr(jh, "StructuralFamily", None)
+    family = getattr(jh.families, "StructuralFamily", None)
     if family is None:
         raise SystemExit(
-            "structural_tests: this jaxhyst has no jh.StructuralFamily (the "
+            "structural_tests: this jaxhyst has no jh.families.StructuralFamily (the "
             "structural diagnosis); update jaxhyst, or run it from a source tree "
             "that has jaxhyst/_diagnose with the structural family."
         )

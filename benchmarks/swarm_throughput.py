@@ -160,10 +160,12 @@ class Bench:
         # float32 runs: the input path (and so the simulation) and the swarm in float32.
         path = jh.InputPath(path64.t0, path64.dt, path64.values.astype(dtype))
         measured = y64.astype(dtype)
-        self.problem = jh.Problem(space, path, measured, jh.RK4())
+        self.problem = jh.identification.Problem(space, path, measured, jh.RK4())
         # The objective `identify`'s swarm runs: RK4 steps spanning several samples,
         # every sample still simulated (dense output) and compared.
-        self.samples_per_step = jh.swarm_samples_per_step(np.asarray(path.values))
+        self.samples_per_step = jh.identification.swarm_samples_per_step(
+            np.asarray(path.values)
+        )
         self.swarm_problem = _swarm_problem(self.problem, self.samples_per_step)
         self.num_samples = path.num_samples
         self.dimension = space.dimension
@@ -413,7 +415,7 @@ def bench_jaxhyst(bench, size, args, sharding, devices, clock, as_fitted=False):
     k = bench.samples_per_step if as_fitted else 1
 
     def run(seed):
-        return jh.run_swarm(
+        return jh.identification.run_swarm(
             jaxhyst_objective,
             bench.lower,
             bench.upper,

@@ -10,8 +10,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ._program_store import enable_program_store
-
 
 ENV_VAR = "JAXHYST_CACHE_DIR"
 
@@ -92,18 +90,6 @@ def enable_compilation_cache() -> Path | None:
     at the first compilation after it is set and keeps it for the rest of the
     process. Calling it again is harmless.
 
-    It also turns on jaxhyst's program store (`programs/` inside the folder): the
-    traced programs of the swarm, the polish, the identifiability analysis and the
-    diagnosis's refits, exported with `jax.export` and compiled for this machine's
-    processor, so that a later process loads them without tracing, lowering or
-    compiling them. A stored program is found by a key that
-    fixes everything its tracing depends on (the argument shapes, dtypes and
-    non-array values, jaxhyst's source, the versions of JAX, jaxlib, equinox,
-    optimistix, lineax, optax, NumPy and Python, the backend and the JAX options
-    that change tracing); calls the key cannot pin down (arguments of classes
-    defined outside these packages, closures, programs that call back into Python)
-    run as usual and store nothing.
-
     Entries are keyed by a hash of the program, the jaxlib version, the backend,
     the XLA flags and the compile options, so several versions of jaxhyst or JAX may
     share the folder, and the folder is safe to delete at any time (it grows without
@@ -156,5 +142,4 @@ def enable_compilation_cache() -> Path | None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
     jax.config.update("jax_compilation_cache_dir", str(path))
-    enable_program_store(path / "programs")
     return path

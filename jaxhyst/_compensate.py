@@ -29,7 +29,6 @@ y = k1*u(t) + k2*h[u(t + phi)]), so the drive is not shifted as a whole.
 """
 
 import abc
-import dataclasses
 import numbers
 from typing import ClassVar
 
@@ -43,8 +42,6 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from ._error_spectrum import ErrorSpectrum, error_spectrum
 from ._inputs import InputPath
 from ._models.base import AbstractHysteresisModel
-from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoBoucWen, PiezoStage
-from ._models.extended import ExtendedPiezo
 from ._simulate import RK4, AbstractSimulationSolver, simulate
 from ._status import RESULTS, raise_unless_successful
 from ._uniform import uniform_series
@@ -129,23 +126,6 @@ class Compensation(eqx.Module):
         return error_spectrum(
             self.times, self.error, stroke=float(np.ptp(np.asarray(self.reference)))
         )
-
-
-def _lags(model: AbstractHysteresisModel) -> str | None:
-    """Why `model` has no per-sample inverse, or None."""
-    if isinstance(model, PiezoStage):
-        return (
-            "PiezoStage's output is the position of a mass-spring-damper, which does "
-            "not respond to the present drive within one sample"
-        )
-    if isinstance(model, CorrectedPiezoBoucWen | ExtendedPiezo) and float(model.phi):
-        return (
-            f"{type(model).__name__} with phi = {float(model.phi):g} s reads the drive "
-            "shifted in time (V(t) = u(t + phi)), not at the present sample"
-        )
-    if isinstance(model, ExtendedPiezo) and model.dynamic:
-        return "this ExtendedPiezo has stage dynamics (inertia and damping)"
-    return None
 
 
 def _one_interval(model, solver, t, dt, state, u_now, u_next):
@@ -278,44 +258,6 @@ def _invert(model, solver, t0, dt, reference, lo, hi, iterations):
     )
 
 
-def _quasi_static(model: AbstractHysteresisModel) -> AbstractHysteresisModel:
-    """The model without what makes its output lag the drive (stage dynamics, the
-    time shift): what the per-sample inversion can invert."""
-    if isinstance(model, PiezoStage):
-        values = {n: getattr(model, n) for n in PiezoBoucWen.parameter_names}
-        return PiezoBoucWen(**values, smoothing=model.smoothing)
-    if isinstance(model, CorrectedPiezoBoucWen | ExtendedPiezo):
-        model = model.replace(phi=0.0)
-    if isinstance(model, ExtendedPiezo) and model.dynamic:
-        model = dataclasses.replace(model, dynamic=False)
-    return model
-
-
-def _time_shift(model: AbstractHysteresisModel) -> float:
-    """The model's phi: how far in time (s) its hysteresis reads the drive."""
-    if isinstance(model, CorrectedPiezoBoucWen | ExtendedPiezo):
-        return float(model.phi)
-    return 0.0
-
-
-def _stage(model: AbstractHysteresisModel):
-    """(omega, zeta, drift) of the model's second-order stage (its drift added
-    after the stage, a function of time), or None when it has none."""
-    if isinstance(model, PiezoStage):
-        return (
-            2 * np.pi * float(model.natural_frequency),
-            float(model.damping_ratio),
-            lambda t: np.zeros_like(t),
-        )
-    if isinstance(model, ExtendedPiezo) and model.dynamic:
-        return (
-            2 * np.pi * float(model.natural_frequency),
-            float(model.damping_ratio),
-            lambda t: np.asarray(model.drift(jnp.asarray(t))),
-        )
-    return None
-
-
 def _static_inverse(
     model, solver, times: np.ndarray, target: Array, lo: float, hi: float, start
 ) -> tuple[Array, Array]:
@@ -324,15 +266,15 @@ def _static_inverse(
     the hysteresis sees (y = k1*u(t) + k2*h[u(t + phi)]), so shifting the whole drive
     would mistime the linear term, which dominates the output; `OptimisedDrive`'s
     refinement passes put the hysteresis's share in time."""
-    u0, _, at_limit = start.drive(_quasi_static(model), solver, times, target, lo, hi)
+    u0, _, at_limit = start.drive(model.quasi_static(), solver, times, target, lo, hi)
     return jnp.asarray(u0, target.dtype), at_limit
 
 
 def _stage_inverse(
     model, stage, solver, times: np.ndarray, reference: Array, lo, hi, start
 ) -> tuple[Array, Array]:
-    """(drive, at_limit): the static response the stage `stage` = (omega, zeta,
-    drift) needs for `reference`, y_s = y + (2 zeta/omega) ydot + yddot/omega^2
+    """(drive, at_limit): the static response the stage `stage`
+    (`model.stage_dynamics()`: omega, zeta, drift) needs for `reference`, y_s = y + (2 zeta/omega) ydot + yddot/omega^2
     (the reference less the drift, by central differences), inverted by
     `_static_inverse`."""
     omega, zeta, drift = stage
@@ -384,7 +326,7 @@ class PerSampleInversion(AbstractCompensationMethod):
             )
 
     def drive(self, model, solver, times, reference, lo, hi):
-        why = _lags(model)
+        why = model.lag_reason()
         if why is not None:
             raise ValueError(
                 f"compensate: {why}, so the drive cannot be found sample by sample; "
@@ -409,17 +351,17 @@ class DynamicInversion(AbstractCompensationMethod):
     name: ClassVar[str] = "dynamic inversion"
 
     def drive(self, model, solver, times, reference, lo, hi):
-        stage = _stage(model)
+        stage = model.stage_dynamics()
         if stage is None:
             raise ValueError(
                 f"compensate: {type(model).__name__} has no stage dynamics for "
                 "DynamicInversion to invert; use method=PerSampleInversion() (models "
                 "without a lag) or OptimisedDrive() (a time shift)."
             )
-        if _time_shift(model):
+        if model.time_shift():
             raise ValueError(
                 f"compensate: this {type(model).__name__} also reads the drive "
-                f"shifted in time (phi = {_time_shift(model):g} s), which "
+                f"shifted in time (phi = {model.time_shift():g} s), which "
                 "DynamicInversion does not invert; use method=OptimisedDrive() (the "
                 "default for such models)."
             )
@@ -464,7 +406,7 @@ class OptimisedDrive(AbstractCompensationMethod):
             )
 
     def drive(self, model, solver, times, reference, lo, hi):
-        stage = _stage(model)
+        stage = model.stage_dynamics()
         if stage is not None:
             start, _ = _stage_inverse(
                 model, stage, solver, times, reference, lo, hi, self.start
@@ -585,9 +527,9 @@ def compensate(
             f"compensate: model must be a jaxhyst model, got {type(model).__name__}."
         )
     if method is None:
-        if _stage(model) is not None and not _time_shift(model):
+        if model.stage_dynamics() is not None and not model.time_shift():
             method = DynamicInversion()
-        elif _lags(model) is not None:
+        elif model.lag_reason() is not None:
             method = OptimisedDrive()
         else:
             method = PerSampleInversion()

@@ -7,35 +7,19 @@ solver, so that a saved model is evaluated (and inverted) as it was fitted.
 import numpy as np
 
 from ._models.base import AbstractHysteresisModel
-from ._models.bouc_wen import BoucWen, PiezoStage
-from ._models.damper import BoucWenDamper, SpencerDamper
-from ._models.damper_extended import ExtendedDamper
-from ._models.structural import StructuralBoucWen
 from ._recording import Recording
 from ._simulate import RK4, simulate
 
 
 def default_solver(model: AbstractHysteresisModel, recording: Recording) -> RK4:
-    """The solver `jaxhyst fit` / `diagnose` simulate this kind of model with: RK4
-    with 4 substeps for `PiezoStage` (its stage is stiff on the sample scale), the
-    structural family's substeps for `BoucWen` and `StructuralBoucWen`, the
-    model's own `recommended_substeps` for the MR damper models (their internal
-    dashpot and sharp loops are stiff at kHz sample rates) and the damper family's
-    substeps for `ExtendedDamper` (what `diagnose` fitted it with), else one RK4
-    step per sample."""
-    if isinstance(model, PiezoStage):
-        return RK4(substeps=4)
-    if isinstance(model, (BoucWen, StructuralBoucWen)):
-        from ._diagnose._families import StructuralFamily
-
-        return StructuralFamily().solver(recording)
-    if isinstance(model, ExtendedDamper):
-        from ._diagnose._families import DamperFamily
-
-        return DamperFamily().solver(recording)
-    if isinstance(model, (BoucWenDamper, SpencerDamper)):
-        return RK4(substeps=model.recommended_substeps(recording.input_path()))
-    return RK4()
+    """The solver `jaxhyst fit` / `diagnose` simulate this kind of model with
+    (`model.default_solver(recording)`): RK4 with 4 substeps for `PiezoStage` (its
+    stage is stiff on the sample scale), the structural family's substeps for
+    `BoucWen` and `StructuralBoucWen`, the model's own `recommended_substeps` for
+    the MR damper models (their internal dashpot and sharp loops are stiff at kHz
+    sample rates) and the damper family's substeps for `ExtendedDamper` (what
+    `diagnose` fitted it with), else one RK4 step per sample."""
+    return model.default_solver(recording)
 
 
 def predict(

@@ -23,7 +23,6 @@ from pathlib import Path
 from ._compensate import _EXPANSIONS
 from ._files import Refusal, output_folder
 from ._models.base import AbstractHysteresisModel
-from ._models.bouc_wen import CorrectedPiezoBoucWen, PiezoBoucWen
 from ._smoothing import AlgebraicSign, ExactSign, TanhSign
 
 
@@ -40,27 +39,6 @@ def _sign_code(model: AbstractHysteresisModel) -> str:
         f"export_c: no C form of the sign rule {type(smoothing).__name__}; use "
         "ExactSign, TanhSign or AlgebraicSign."
     )
-
-
-def _parameters(model: AbstractHysteresisModel) -> dict[str, float]:
-    if isinstance(model, CorrectedPiezoBoucWen):
-        if float(model.phi) != 0.0:
-            raise ValueError(
-                f"export_c: phi = {float(model.phi):g} s shifts the drive in time; "
-                "the per-sample C step reads only the present drive. Export the "
-                "model with phi = 0."
-            )
-        eps = float(model.eps)
-    elif type(model) is PiezoBoucWen:
-        eps = 0.0
-    else:
-        raise ValueError(
-            f"export_c: {type(model).__name__} has no C export; PiezoBoucWen and "
-            "CorrectedPiezoBoucWen (phi = 0) do."
-        )
-    values = {n: float(getattr(model, n)) for n in PiezoBoucWen.parameter_names}
-    values["eps"] = eps
-    return values
 
 
 _HEADER = """/* {prefix}.h: {model} exported by jaxhyst {version}. C99, needs <math.h>. */
@@ -205,10 +183,11 @@ def export_c(
     """Write `<prefix>.h` and `<prefix>.c` into `directory` (created if missing);
     returns their paths. `substeps`: RK4 steps per sample, as `RK4(substeps)` in
     `simulate`; `iterations`: the compensator's bisection halvings, as in
-    `compensate`. Existing files are refused unless `overwrite`."""
+    `compensate`. Existing files are refused unless `overwrite`. The constants are
+    the model's `c_export_parameters()` (a model without a C export refuses)."""
     import jaxhyst
 
-    values = _parameters(model)
+    values = model.c_export_parameters()
     sign = _sign_code(model)
     if not prefix.isidentifier():
         raise ValueError(

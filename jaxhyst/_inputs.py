@@ -17,8 +17,6 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
-from ._arrays import device_array
-
 
 class AbstractInterpolation(eqx.Module):
     """How the input is reconstructed between samples."""
@@ -104,7 +102,7 @@ class InputPath(eqx.Module):
         interpolation: AbstractInterpolation | None = None,
         channels: Float[ArrayLike, "k n"] | None = None,
     ):
-        values = device_array(values)
+        values = jnp.asarray(values)
         if values.ndim != 1:
             raise ValueError(
                 f"InputPath: values must be one-dimensional, got shape {values.shape}; "
@@ -118,8 +116,8 @@ class InputPath(eqx.Module):
             values = values.astype(jnp.result_type(float))
         if isinstance(dt, (int, float)) and not dt > 0:
             raise ValueError(f"InputPath: dt must be positive, got {dt}.")
-        self.t0 = device_array(t0, values.dtype)
-        self.dt = device_array(dt, values.dtype)
+        self.t0 = jnp.asarray(t0, values.dtype)
+        self.dt = jnp.asarray(dt, values.dtype)
         self.values = values
         self.interpolation = (
             LinearInterpolation() if interpolation is None else interpolation
@@ -127,7 +125,7 @@ class InputPath(eqx.Module):
         if channels is None:
             self.channels = None
         else:
-            channels = device_array(channels, values.dtype)
+            channels = jnp.asarray(channels, values.dtype)
             if channels.ndim != 2 or channels.shape[1] != values.shape[0]:
                 raise ValueError(
                     f"InputPath: channels must have shape (k, {values.shape[0]}) (one "

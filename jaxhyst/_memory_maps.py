@@ -8,8 +8,7 @@ session that diagnoses or fits many records of different lengths (a notebook
 looping over tests, a benchmark) then reaches Linux's per-process limit
 (`vm.max_map_count`, 65 530 by default), and the next compilation fails with
 "LLVM compilation error: Cannot allocate memory" although memory is free.
-`release_if_near_map_limit` clears JAX's caches (and lets go of the program
-store's loaded executables) before that happens (at `RELEASE_AT` of the limit):
+`release_if_near_map_limit` clears JAX's caches before that happens (at `RELEASE_AT` of the limit):
 programs are compiled, or loaded, again when next needed.
 """
 
@@ -17,8 +16,6 @@ import gc
 import warnings
 
 import jax
-
-from ._program_store import forget_loaded_programs
 
 
 _MAPS = "/proc/self/maps"
@@ -54,7 +51,6 @@ def release_if_near_map_limit(what: str) -> bool:
     if used < RELEASE_AT * limit:
         return False
     jax.clear_caches()
-    forget_loaded_programs()
     gc.collect()
     after = memory_maps()
     warnings.warn(

@@ -13,8 +13,6 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._arrays import device_array
-
 
 def _pair(fn: str, y, yhat, xp=jnp):
     """`y` and `yhat` as arrays of `xp` (`jax.numpy`, or NumPy for reports) in a
@@ -23,7 +21,7 @@ def _pair(fn: str, y, yhat, xp=jnp):
         y, yhat = np.asarray(y), np.asarray(yhat)
         dtype = np.result_type(y.dtype, yhat.dtype, np.float16)  # at least a float
     else:
-        y, yhat = device_array(y), device_array(yhat)
+        y, yhat = jnp.asarray(y), jnp.asarray(yhat)
         dtype = jnp.result_type(y, yhat, float)
     if y.shape != yhat.shape:
         raise ValueError(

@@ -193,12 +193,6 @@ def checksum(data: Mapping[str, Any]) -> str:
     return "sha256:" + hashlib.sha256(canonical(rest).encode("utf-8")).hexdigest()
 
 
-# Fields a model file does not list: the smoothing has its own block, and the gains a
-# refit holds at zero (`held_at_zero`) are a way of computing, not part of the model
-# (a loaded model holds nothing).
-_NOT_FIELDS = ("smoothing", "zero_gains")
-
-
 def model_file_dict(
     model: AbstractHysteresisModel,
     *,
@@ -231,17 +225,15 @@ def model_file_dict(
                 f"save_model: recording must be a Recording (or several), got "
                 f"{type(r).__name__}."
             )
-    names = set(cls.parameter_names)
     parameters = {
         name: _number(getattr(model, name), f"{cls.__name__}.{name}")
         for name in cls.parameter_names
     }
+    # Every other field but the smoothing (its own block) and ways of computing
+    # (the gains a refit holds at zero): the model's `setting_names`.
     fields = {
-        field.name: _field_value(
-            getattr(model, field.name), f"{cls.__name__}.{field.name}"
-        )
-        for field in dataclasses.fields(model)
-        if field.name not in names and field.name not in _NOT_FIELDS
+        name: _field_value(getattr(model, name), f"{cls.__name__}.{name}")
+        for name in cls.setting_names
     }
     data: dict[str, Any] = {
         "format": FORMAT,
@@ -498,11 +490,8 @@ def _model(block: Any, owner: str) -> AbstractHysteresisModel:
     bad = [k for k, v in parameters.items() if not _is_number(v)]
     if bad:
         raise ValueError(f"{owner}: parameter(s) {bad} must be numbers.")
-    other = {
-        f.name: f
-        for f in dataclasses.fields(cls)
-        if f.name not in cls.parameter_names and f.name not in _NOT_FIELDS
-    }
+    settings = set(cls.setting_names)
+    other = {f.name: f for f in dataclasses.fields(cls) if f.name in settings}
     _names_check(owner, "field(s)", fields, tuple(other))
     values: dict[str, Any] = {k: float(v) for k, v in parameters.items()}
     for key, value in fields.items():

@@ -51,32 +51,6 @@ _RELATIVE_TOL = 1e-10
 _MAX_ITER = 100
 _DRIFT = ("offset", "trend", "curvature", "wander")
 _PEAK_DEGRADATION = ("peak_strength_degradation", "peak_stiffness_degradation")
-# StructuralBoucWen's parameters this export knows, listed on purpose (not read from
-# the model): a parameter added to the model later and switched on is reported as
-# dropped under its own name until the export learns it.
-_KNOWN = frozenset(
-    (
-        "k",
-        "alpha",
-        "A",
-        "beta",
-        "gamma",
-        "n",
-        "strength_degradation",
-        "stiffness_degradation",
-        "peak_strength_degradation",
-        "peak_stiffness_degradation",
-        "pinch",
-        "pinch_shift",
-        "pinch_width",
-        "pinch_rate",
-        "slip_length",
-        "slip_window",
-        "yield_skew",
-        "stiffness_skew",
-    )
-    + _DRIFT
-)
 _BOUC_WEN_NAMES = (
     "alpha",
     "ko",
@@ -150,19 +124,6 @@ class OpenSeesMaterial(eqx.Module):
         }
 
 
-def _scalar(model: StructuralBoucWen, name: str) -> float:
-    value = np.asarray(getattr(model, name))
-    if value.shape != ():
-        raise ValueError(
-            f"opensees_material: {name} has shape {value.shape}; export one model at "
-            "a time (index a batched model first)."
-        )
-    if value.dtype == np.float32:
-        # The shortest decimal that is this float32: 0.05, not 0.05000000074505806.
-        return float(np.format_float_scientific(np.float32(value), unique=True))
-    return float(value)
-
-
 def _format(value: float | int) -> str:
     return str(value) if isinstance(value, int) else repr(float(value))
 
@@ -201,7 +162,8 @@ def opensees_material(
 ) -> OpenSeesMaterial:
     """The OpenSees uniaxial material that reproduces `model` (a `StructuralBoucWen`,
     or a `BoucWen` with D > 0 and A > 0, converted by
-    `StructuralBoucWen.from_bouc_wen`).
+    `StructuralBoucWen.from_bouc_wen`): the model's `opensees_model()`, whose
+    `opensees_parameters()` the material is built from.
 
     Without pinching it is `BoucWen` (deltaNu, deltaEta = strength_degradation,
     stiffness_degradation divided by energy_scale; deltaA = 0); with pinching it is
@@ -218,13 +180,7 @@ def opensees_material(
     first-order error, shrinking as 1/substeps) for plain, degrading and pinching
     models. OpenSees materials start at x = 0, z = 0: start the history at 0.
     """
-    if isinstance(model, BoucWen):
-        model = StructuralBoucWen.from_bouc_wen(model)
-    if not isinstance(model, StructuralBoucWen):
-        raise TypeError(
-            "opensees_material: model must be a StructuralBoucWen or BoucWen (the "
-            f"models OpenSees has a material for), got {type(model).__name__}."
-        )
+    model = model.opensees_model()
     if isinstance(tag, bool) or not isinstance(tag, int | np.integer):
         raise TypeError(f"opensees_material(tag={tag!r}): tag must be an integer >= 1.")
     if tag < 1:
@@ -242,9 +198,8 @@ def opensees_material(
                 "'kN' or 'mm', or None."
             )
 
-    p = {name: _scalar(model, name) for name in model.parameter_names}
-    energy_scale = _scalar(model, "energy_scale")
-    pinch_lambda = _scalar(model, "pinch_lambda")
+    p = model.opensees_parameters()
+    energy_scale, pinch_lambda = p["energy_scale"], p["pinch_lambda"]
     k, alpha, n, gamma, beta, A = (
         p[x] for x in ("k", "alpha", "n", "gamma", "beta", "A")
     )
@@ -296,10 +251,6 @@ def opensees_material(
         _DRIFT,
         "a load-cell offset and slow drift of the test, not a property of the member",
     )
-    for name in model.parameter_names:
-        if name not in _KNOWN and p[name] != 0:
-            dropped.append(name)
-            reasons.append(f"{name}={p[name]:.4g}: no OpenSees counterpart")
     if not isinstance(model.smoothing, ExactSign):
         dropped.append("smoothing")
         reasons.append(

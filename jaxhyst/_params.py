@@ -12,7 +12,6 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float
 
-from ._arrays import device_array
 from ._models.base import AbstractHysteresisModel, DataScales
 from ._recording import Recording
 
@@ -95,14 +94,14 @@ class ParameterSpace(eqx.Module):
         self.template = template
         self.names = names
         self.log_scale = tuple(n in log_scale for n in names)
-        self.lower = device_array(lower)
-        self.upper = device_array(upper)
+        self.lower = jnp.asarray(lower)
+        self.upper = jnp.asarray(upper)
         # Physical limits that hold even when a polish steps outside the box.
         floors = {**_HARD_FLOORS, **template.parameter_floors}
-        self.floor = device_array([floors.get(n, -np.inf) for n in names])
+        self.floor = jnp.asarray([floors.get(n, -np.inf) for n in names])
         # Frozen parameters keep the template's value whatever z says. The mask is
         # traced, so fits over different subsets of one space share a compilation.
-        self.frozen = device_array([n in frozen for n in names], bool)
+        self.frozen = jnp.asarray([n in frozen for n in names], bool)
         if not isinstance(stable_shape, bool):
             raise TypeError(
                 f"ParameterSpace: stable_shape must be True or False, got "

@@ -15,9 +15,9 @@ Curves are passed as `{label: values}` dictionaries, drawn in order: the first s
 
     figure = matplotlib.figure.Figure(figsize=(10, 4), layout="constrained")
     left, right = figure.subplots(1, 2)
-    jh.plot_loop(u, {"measured": y, "model": yhat}, ax=left)
-    jh.plot_error_trend(t, {"model": abs(y - yhat)}, ax=right)
-    jh.save_figure(figure, "fit.png")
+    jh.report.plot_loop(u, {"measured": y, "model": yhat}, ax=left)
+    jh.report.plot_error_trend(t, {"model": abs(y - yhat)}, ax=right)
+    jh.report.save_figure(figure, "fit.png")
 """
 
 import os

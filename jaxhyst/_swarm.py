@@ -27,10 +27,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int, PRNGKeyArray
 
-from ._arrays import device_array
-from ._program_store import stored_jit
 from ._status import RESULTS, raise_unless_successful
-from ._xla_options import ELEMENTAL_EMITTERS
 
 
 # Table 3 of the paper: case -> (swarm size, number of iterations G).
@@ -59,7 +56,14 @@ def _default_float():
 
 
 def _coefficient(x):
-    return device_array(x, _default_float())
+    """A traced setting as stored: a JAX array (or tracer) in the default float type;
+    a Python or NumPy number as a float64 NumPy array, which JAX converts when a
+    program is called, at the precision then in force. So a default built at import
+    time (`identify`'s `swarm=MPSO(...)`) does not fix its precision before the
+    user turns 64-bit floats on."""
+    if isinstance(x, jax.Array):  # tracers too
+        return jnp.asarray(x, _default_float())
+    return np.asarray(x, np.float64)
 
 
 def _concrete(x) -> np.ndarray | None:
@@ -180,16 +184,24 @@ class MPSO(eqx.Module):
       paper bounds.
 
     Traced fields are stored as arrays, so sweeping them does not recompile
-    `run_swarm`.
+    `run_swarm`: numbers as float64 NumPy arrays, which take the precision in force
+    when the swarm runs (a swarm built before 64-bit floats are turned on searches as
+    one built after), JAX arrays as they are.
     """
 
     num_particles: int = eqx.field(default=64, static=True)
     num_iterations: int = eqx.field(default=500, static=True)
-    c1: Float[Array, ""] = eqx.field(default=1.3, converter=_coefficient)
-    c2: Float[Array, ""] = eqx.field(default=1.7, converter=_coefficient)
-    w_max: Float[Array, ""] = eqx.field(default=0.9, converter=_coefficient)
-    w_min: Float[Array, ""] = eqx.field(default=0.1, converter=_coefficient)
-    velocity_limit: Float[Array, "*d"] = eqx.field(default=0.2, converter=_coefficient)
+    c1: Float[Array | np.ndarray, ""] = eqx.field(default=1.3, converter=_coefficient)
+    c2: Float[Array | np.ndarray, ""] = eqx.field(default=1.7, converter=_coefficient)
+    w_max: Float[Array | np.ndarray, ""] = eqx.field(
+        default=0.9, converter=_coefficient
+    )
+    w_min: Float[Array | np.ndarray, ""] = eqx.field(
+        default=0.1, converter=_coefficient
+    )
+    velocity_limit: Float[Array | np.ndarray, "*d"] = eqx.field(
+        default=0.2, converter=_coefficient
+    )
 
     def __check_init__(self):
         if not _is_int(self.num_particles) or self.num_particles < 2:
@@ -244,13 +256,14 @@ class MPSO(eqx.Module):
 
     def inertia_weight(self, iteration: Int[ArrayLike, ""]) -> Float[Array, ""]:
         """Eq. 13, `w(k) = w_max - (k/G)(w_max - w_min)`, held at `w_min` for k > G."""
+        w_max, w_min = jnp.asarray(self.w_max), jnp.asarray(self.w_min)
         fraction = jnp.clip(
-            jnp.asarray(iteration, self.w_max.dtype) / self.num_iterations, 0.0, 1.0
+            jnp.asarray(iteration, w_max.dtype) / self.num_iterations, 0.0, 1.0
         )
-        return self.w_max - fraction * (self.w_max - self.w_min)
+        return w_max - fraction * (w_max - w_min)
 
     def _velocity_limit(self, d: int, dtype) -> Float[Array, " d"]:
-        vlim = self.velocity_limit.astype(dtype)
+        vlim = jnp.asarray(self.velocity_limit).astype(dtype)
         if vlim.ndim == 1 and vlim.shape[0] != d:
             raise ValueError(
                 f"`velocity_limit` has {vlim.shape[0]} entries but the search space "
@@ -334,7 +347,7 @@ class MPSO(eqx.Module):
                 "with this solver's `init`."
             )
         dtype = x.dtype
-        c1, c2 = self.c1.astype(dtype), self.c2.astype(dtype)
+        c1, c2 = jnp.asarray(self.c1).astype(dtype), jnp.asarray(self.c2).astype(dtype)
         w = self.inertia_weight(jnp.maximum(state.iteration, 0)).astype(dtype)
         vlim = self._velocity_limit(d, dtype)[None]
         # Random factors are drawn for the real swarm only, so their values do not
@@ -468,36 +481,27 @@ _UNSAMPLED = -2
 
 def _unsampled(swarm: MPSO, lower: Array, upper: Array) -> SwarmState:
     """The state `run_swarm` starts from: the shapes of `swarm._sample`'s, made on
-    the host, with `iteration = _UNSAMPLED`; the first chunk draws the positions
-    (eq. 14) in its own program, so that a run compiles no program of its own for
-    them (0.3-0.5 s of a cold fit)."""
+    the host (NumPy arrays given their dtype: `jnp.asarray` compiles nothing), with
+    `iteration = _UNSAMPLED`; the first chunk draws the positions (eq. 14) in its own
+    program, so that a run compiles no program of its own for them."""
     dtype = np.dtype(lower.dtype)
-    rows = device_array(np.zeros((swarm.num_particles, lower.shape[0]), dtype))
-    unknown = device_array(np.full((swarm.num_particles,), np.inf, dtype))
+    rows = jnp.asarray(np.zeros((swarm.num_particles, lower.shape[0]), dtype), dtype)
+    unknown = jnp.asarray(np.full((swarm.num_particles,), np.inf, dtype), dtype)
     return SwarmState(
         positions=rows,
         velocities=rows,
         fitness=unknown,
         pbest=rows,
         pbest_fitness=unknown,
-        gbest=device_array(np.zeros(lower.shape[0], dtype)),
-        gbest_fitness=device_array(np.asarray(np.inf, dtype)),
-        iteration=device_array(np.asarray(_UNSAMPLED, np.int32)),
+        gbest=jnp.asarray(np.zeros(lower.shape[0], dtype), dtype),
+        gbest_fitness=jnp.asarray(np.asarray(np.inf, dtype), dtype),
+        iteration=jnp.asarray(np.asarray(_UNSAMPLED, np.int32), jnp.int32),
         lower=lower,
         upper=upper,
     )
 
 
-# 512-bit vectors on CPUs that have them (XLA's default prefers 256): the swarm's
-# RK4 loop ran 1.7x faster on the AVX-512 CI machine. Other backends ignore it.
-_SWARM_COMPILER_OPTIONS = {"xla_cpu_prefer_vector_width": 512}
-
-
-# In a fit (`one_shot`) the elemental emitters: 0.78 s to compile against 1.2-1.3 s
-# (session 35), for a loop that runs ~15 % slower (`_xla_options`).
-@stored_jit(
-    compiler_options=_SWARM_COMPILER_OPTIONS, one_shot_options=ELEMENTAL_EMITTERS
-)
+@eqx.filter_jit
 def _run_chunk(
     swarm: MPSO,
     objective,
@@ -739,13 +743,13 @@ def run_swarm(
             )
         monitor = _Monitor(
             reference=state.gbest_fitness,
-            last_improvement=device_array(np.zeros((), np.int32)),
+            last_improvement=jnp.asarray(np.zeros((), np.int32), jnp.int32),
         )
-        target_array = device_array(-np.inf if target is None else target, dtype)
-        stall_array = device_array(
-            _NEVER if stall_iterations is None else stall_iterations, jnp.int32
+        target_array = np.asarray(-np.inf if target is None else target, dtype)
+        stall_array = np.asarray(
+            _NEVER if stall_iterations is None else stall_iterations, np.int32
         )
-        tolerance_array = device_array(stall_tolerance, dtype)
+        tolerance_array = np.asarray(stall_tolerance, dtype)
 
         history = []
         iteration = -1

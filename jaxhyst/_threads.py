@@ -10,7 +10,6 @@ the same, only when it runs changes.
 """
 
 import contextlib
-import contextvars
 import os
 import threading
 from collections.abc import Callable, Iterable, Iterator
@@ -56,11 +55,7 @@ def side_by_side(fn: Callable[[_T], _R], items: Iterable[_T]) -> Iterator[Iterat
         yield (fn(item) for item in items)
         return
     with ThreadPoolExecutor(workers, thread_name_prefix="jaxhyst-work") as pool:
-        # Each in a copy of this thread's context (`_xla_options`' mode).
-        futures = [
-            pool.submit(contextvars.copy_context().run, _in_worker, fn, item)
-            for item in items
-        ]
+        futures = [pool.submit(_in_worker, fn, item) for item in items]
         try:
             yield (future.result() for future in futures)
         finally:

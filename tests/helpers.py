@@ -33,11 +33,11 @@ def piezo_model(**overrides: Any) -> jh.PiezoBoucWen:
 
 def validation(
     heldout_before: float = 1.0, heldout_after: float = 0.5, *, accepted: bool = True
-) -> jh.Validation:
+) -> jh.diagnosis.Validation:
     """A held-out validation record for stage tests that stand in the refits: the
     held-out RMSE before and after, whether the effect was accepted; the rest
     neutral."""
-    return jh.Validation(
+    return jh.diagnosis.Validation(
         heldout_rmse_before=heldout_before,
         heldout_rmse_after=heldout_after,
         fit_rmse_before=1.0,

@@ -14,7 +14,6 @@ import pytest
 
 from jaxhyst import _cache
 from jaxhyst._cache import compilation_cache_dir, enable_compilation_cache
-from jaxhyst._program_store import enable_program_store, program_store
 
 
 _OPTIONS = (
@@ -33,11 +32,9 @@ def jax_cache_config(monkeypatch):
     """Restore JAX's cache options afterwards, and start with no warning issued."""
     monkeypatch.setattr(_cache, "_warned", False)
     before = {name: _option(name) for name in _OPTIONS}
-    store = program_store()
     yield before
     for name, value in before.items():
         jax.config.update(name, value)
-    enable_program_store(store)
 
 
 @pytest.fixture
@@ -101,7 +98,6 @@ def test_empty_env_var_turns_it_off(no_env, jax_cache_config, capsys, value):
     assert enable_compilation_cache() is None
     for name, before in jax_cache_config.items():
         assert _option(name) == before  # configured nothing
-    assert program_store() is None
     assert capsys.readouterr().err == ""
 
 
@@ -115,7 +111,6 @@ def test_enable_configures_jax(no_env, jax_cache_config, tmp_path, capsys):
     assert _option("jax_compilation_cache_dir") == str(target)
     assert _option("jax_persistent_cache_min_compile_time_secs") == 0.0
     assert _option("jax_persistent_cache_min_entry_size_bytes") == -1
-    assert program_store() == target / "programs"  # traced programs beside
     assert enable_compilation_cache() == target  # again: harmless
     assert capsys.readouterr().err == ""
 

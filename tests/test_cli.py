@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 import jaxhyst as jh
-from jaxhyst import (
+from jaxhyst._cli import main
+from jaxhyst.report import (
     plot_error_trend,
     plot_loop,
     plot_loop_opening,
     plot_time_history,
     save_figure,
 )
-from jaxhyst._cli import main
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -514,7 +514,7 @@ def test_diagnose_report_and_figures(diagnosed):
     assert "## Findings" in text and "## Ambiguities" in text
     assert "## What is left" in text
     html = (out / "report.html").read_text()
-    assert html.count('src="data:image/png;base64,') == len(jh.DIAGNOSIS_FIGURES)
+    assert html.count('src="data:image/png;base64,') == len(jh.report.DIAGNOSIS_FIGURES)
     for name in (
         "loop_before_after",
         "error_trend_before_after",
@@ -588,7 +588,7 @@ def test_diagnose_passes_the_minimum_held_out_gain(short_recording, stopped_diag
     with pytest.raises(_Stop):
         main([*argv, "--min-heldout-gain", "0.02"])
     policy = seen[0][1]["policy"]
-    default = jh.PiezoFamily().default_policy()
+    default = jh.families.PiezoFamily().default_policy()
     assert policy.min_heldout_gain == 0.02
     assert policy == dataclasses.replace(default, min_heldout_gain=0.02)
     with pytest.raises(_Stop):

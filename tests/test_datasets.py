@@ -8,7 +8,7 @@ from jaxhyst._datasets import STRUCTURAL_TESTS, load_structural_test
 
 
 def _data_dir() -> Path:
-    return jh.default_data_dir()
+    return jh.datasets.default_data_dir()
 
 
 needs_data = pytest.mark.skipif(
@@ -20,17 +20,17 @@ needs_data = pytest.mark.skipif(
 
 @pytest.fixture(scope="module")
 def piezo():
-    return jh.load_piezo_actuator()
+    return jh.datasets.load_piezo_actuator()
 
 
 @pytest.fixture(scope="module")
 def benchmark():
-    return jh.load_bouc_wen_benchmark()
+    return jh.datasets.load_bouc_wen_benchmark()
 
 
 def test_default_data_dir_env(monkeypatch, tmp_path):
     monkeypatch.setenv("JAXHYST_DATA_DIR", str(tmp_path))
-    assert jh.default_data_dir() == tmp_path
+    assert jh.datasets.default_data_dir() == tmp_path
 
 
 def test_default_data_dir_fallback(monkeypatch, tmp_path):
@@ -39,15 +39,15 @@ def test_default_data_dir_fallback(monkeypatch, tmp_path):
     work = tmp_path / "project" / "work"
     work.mkdir(parents=True)
     monkeypatch.chdir(work)  # ./../shared/data does not exist yet
-    assert jh.default_data_dir() == repo_data
+    assert jh.datasets.default_data_dir() == repo_data
     local = tmp_path / "project" / "shared" / "data"
     local.mkdir(parents=True)
-    assert jh.default_data_dir() == local.resolve()
+    assert jh.datasets.default_data_dir() == local.resolve()
 
 
 def test_missing_piezo_message(tmp_path):
     with pytest.raises(FileNotFoundError) as info:
-        jh.load_piezo_actuator(data_dir=tmp_path)
+        jh.datasets.load_piezo_actuator(data_dir=tmp_path)
     message = str(info.value)
     assert str(tmp_path / "piezo_actuator_smarthysteresis") in message
     assert "hysteresis_v_150_1hz.csv" in message
@@ -58,7 +58,7 @@ def test_missing_piezo_message(tmp_path):
 def test_missing_benchmark_message(tmp_path, monkeypatch):
     monkeypatch.setenv("JAXHYST_DATA_DIR", str(tmp_path))
     with pytest.raises(FileNotFoundError) as info:
-        jh.load_bouc_wen_benchmark()
+        jh.datasets.load_bouc_wen_benchmark()
     message = str(info.value)
     assert str(tmp_path / "bouc_wen_benchmark") in message
     assert "data_dir" in message and "JAXHYST_DATA_DIR" in message
@@ -85,7 +85,7 @@ def test_piezo(piezo):
 
 @needs_data
 def test_bouc_wen_benchmark(benchmark):
-    assert isinstance(benchmark, jh.BoucWenBenchmark)
+    assert isinstance(benchmark, jh.datasets.BoucWenBenchmark)
     expected = {
         "train": 40960,
         "train_ehh": 40960,
@@ -218,7 +218,7 @@ def test_timber_clt_wall_drops_the_quiet_lead_in():
     reason="Labcontrol MR damper tests not available (set JAXHYST_DATA_DIR)",
 )
 def test_mr_damper_sine_tests():
-    rec = jh.load_mr_damper_sine("ensaio1.1")
+    rec = jh.datasets.load_mr_damper_sine("ensaio1.1")
     assert rec.num_samples == 3001 and rec.dt == pytest.approx(0.01)
     assert (rec.input_unit, rec.output_unit) == ("mm", "N")
     assert rec.input_names == ("displacement",)
@@ -228,9 +228,9 @@ def test_mr_damper_sine_tests():
 
 def test_mr_damper_sine_names_and_missing_files(tmp_path):
     with pytest.raises(ValueError, match="file stem"):
-        jh.load_mr_damper_sine("data/ensaio1.1.mat")
+        jh.datasets.load_mr_damper_sine("data/ensaio1.1.mat")
     with pytest.raises(FileNotFoundError) as info:
-        jh.load_mr_damper_sine("ensaio1.1", data_dir=tmp_path)
+        jh.datasets.load_mr_damper_sine("ensaio1.1", data_dir=tmp_path)
     message = str(info.value)
     assert (
         "labcontrol-data/mr-damper" in message

@@ -17,7 +17,7 @@ def _case(effects, seed=0, noise="white", duration=10.0, rate=500.0, size=8.0):
 
 
 def test_catalogue_names_are_stable_and_nested():
-    assert jh.EFFECT_NAMES == (
+    assert jh.families.EFFECT_NAMES == (
         "asymmetry",
         "input_bias",
         "rate_dependence",
@@ -32,7 +32,7 @@ def test_catalogue_names_are_stable_and_nested():
     np.testing.assert_allclose(
         jh.simulate(extended, path), jh.simulate(base, path), rtol=0, atol=1e-12
     )
-    for effect in jh.CATALOGUE.values():
+    for effect in jh.families.CATALOGUE.values():
         for name in effect.parameters:
             assert name in jh.ExtendedPiezo.parameter_names
 
@@ -42,9 +42,9 @@ def test_locate_finds_branch_and_trend():
     u = 50 * (1 - np.cos(2 * np.pi * 0.5 * t))
     udot = np.gradient(u, t)
     branch = np.where(udot > 0, 1.0, -1.0)
-    where = jh.locate(t, u, branch)
+    where = jh.families.locate(t, u, branch)
     assert where["ascending"]["mean"] > 0.9 and where["descending"]["mean"] < -0.9
-    trend = jh.locate(t, u, 0.1 * t)
+    trend = jh.families.locate(t, u, 0.1 * t)
     assert trend["slow_trend_rms"] > 0.9 * trend["overall_rms"]
 
 
@@ -95,7 +95,7 @@ def test_near_miss_overlapping_an_adopted_effect_is_reported():
     unrelated = np.stack([np.sin(2 * np.pi * t)], axis=1)
 
     def result(effect, after, accepted=False, resolution=0.01, bic=-10.0):
-        validation = jh.Validation(
+        validation = jh.diagnosis.Validation(
             heldout_rmse_before=1.05,
             heldout_rmse_after=after,
             fit_rmse_before=1.0,
@@ -134,10 +134,14 @@ def test_runner_up_swapped_in_keeps_its_refitted_parameters():
     path = jh.sample(jh.paper_u1(), 100.0)
     current = jh.ExtendedPiezo.around(base, path).replace(phi=0.01, eps=0.02)
     source = jh.ExtendedPiezo.around(base, path).with_dynamics(40.0, 0.3)
-    swapped = jh.Dynamics().take_from(jh.InputBias().switch_off(current), source)
+    swapped = jh.effects.Dynamics().take_from(
+        jh.effects.InputBias().switch_off(current), source
+    )
     assert swapped.dynamic and float(swapped.natural_frequency) == 40.0
     assert float(swapped.phi) == 0.0 and float(swapped.eps) == 0.02
-    back = jh.InputBias().take_from(jh.Dynamics().switch_off(swapped), current)
+    back = jh.effects.InputBias().take_from(
+        jh.effects.Dynamics().switch_off(swapped), current
+    )
     assert not back.dynamic and float(back.phi) == 0.01
     np.testing.assert_allclose(
         jh.simulate(back, path), jh.simulate(current, path), rtol=0, atol=1e-12
@@ -147,9 +151,9 @@ def test_runner_up_swapped_in_keeps_its_refitted_parameters():
 def test_creep_evidence_without_holds_reads_as_words_not_nan():
     t = np.linspace(0.0, 5.0, 5001)
     u = 75 * np.sin(2 * np.pi * t)
-    where = jh.locate(t, u, np.random.default_rng(0).standard_normal(t.size))
+    where = jh.families.locate(t, u, np.random.default_rng(0).standard_normal(t.size))
     where["after_hold"]["relative"] = float("nan")  # as `locate` gives without holds
-    text = jh.Creep().evidence(where, None)
+    text = jh.effects.Creep().evidence(where, None)
     assert "nan" not in text and "no holds" in text
 
 
@@ -187,9 +191,9 @@ def test_unexplained_structure_is_judged_against_the_residuals_own_noise():
     case = jh.synthetic.concealed_recording(
         (), key=jax.random.key(0), duration=12.0, rate=500.0
     )
-    recording, family = case.recording, jh.PiezoFamily()
+    recording, family = case.recording, jh.families.PiezoFamily()
     fit = family.holdout(recording, 0.2)
-    policy = jh.AdoptionPolicy()
+    policy = jh.families.AdoptionPolicy()
 
     def coloured(seed, coefficient=0.9):
         shocks = np.random.default_rng(seed).standard_normal(
@@ -279,6 +283,6 @@ def test_effective_samples_across_strides_leave_ar_noise_alone(coefficient):
 
 
 def test_only_the_structural_family_reads_its_noise_across_strides():
-    assert jh.StructuralFamily().default_policy().noise_across_strides
-    assert not jh.PiezoFamily().default_policy().noise_across_strides
-    assert not jh.DamperFamily().default_policy().noise_across_strides
+    assert jh.families.StructuralFamily().default_policy().noise_across_strides
+    assert not jh.families.PiezoFamily().default_policy().noise_across_strides
+    assert not jh.families.DamperFamily().default_policy().noise_across_strides

@@ -169,14 +169,16 @@ def test_piezo_evidence_claims_only_what_the_located_residual_shows(
 
 def test_input_bias_does_not_call_092x_a_concentration():
     where = copy.deepcopy(WHERE["reversals"])
-    assert "concentrated near reversals" in jh.InputBias().evidence(where, PIEZO)
+    assert "concentrated near reversals" in jh.effects.InputBias().evidence(
+        where, PIEZO
+    )
     where["near_reversals"]["relative"] = 0.92
-    text = jh.InputBias().evidence(where, PIEZO)
+    text = jh.effects.InputBias().evidence(where, PIEZO)
     assert "time shift" not in text and "is concentrated" not in text
     assert "not concentrated near reversals (0.92x the overall RMS)" in text
     assert NO_SUPPORT in text and "score test and the held-out gain" in text
     where["near_reversals"]["relative"] = 1.6
-    text = jh.InputBias().evidence(where, PIEZO)
+    text = jh.effects.InputBias().evidence(where, PIEZO)
     assert "concentrated near reversals (1.60x the overall RMS)" in text
     assert "time shift" in text and NO_SUPPORT not in text
 
@@ -188,7 +190,7 @@ def test_dynamics_names_the_resonance_only_near_the_fitted_one(peak, near):
     where = copy.deepcopy(WHERE["noise"])
     where["dominant_frequency_hz"] = peak
     model = PIEZO.with_dynamics(851.0, 0.3)
-    text = jh.Dynamics().evidence(where, model)
+    text = jh.effects.Dynamics().evidence(where, model)
     assert_quotes_only(text, where, 851.0)
     assert ("near the fitted resonance" in text) is near
     assert (max(peak / 851, 851 / peak) <= NEAR_RESONANCE) is near
@@ -201,17 +203,17 @@ def test_asymmetry_branch_means_are_a_difference_only_when_far_apart():
     where = copy.deepcopy(WHERE["noise"])
     where["ascending"]["mean"], where["descending"]["mean"] = 0.152, 0.135
     where["overall_rms"] = 0.2
-    text = jh.Asymmetry().evidence(where, PIEZO)
+    text = jh.effects.Asymmetry().evidence(where, PIEZO)
     assert "branches do not differ on average" in text and NO_SUPPORT in text
     assert_quotes_only(text, where, 0.017 / 0.2)
     where["overall_rms"] = 0.05  # the same gap is now 0.34x the RMS
-    text = jh.Asymmetry().evidence(where, PIEZO)
+    text = jh.effects.Asymmetry().evidence(where, PIEZO)
     assert "branches differ on average" in text and NO_SUPPORT not in text
     assert_quotes_only(text, where, 0.017 / 0.05)
 
 
 def test_asymmetry_without_a_branch_gap_rests_on_the_bend_at_the_extremes():
-    text = jh.Asymmetry().evidence(WHERE["extremes"], PIEZO)
+    text = jh.effects.Asymmetry().evidence(WHERE["extremes"], PIEZO)
     assert "branches do not differ" in text
     assert "concentrated at the extremes of the stroke" in text
     assert NO_SUPPORT not in text
@@ -220,11 +222,11 @@ def test_asymmetry_without_a_branch_gap_rests_on_the_bend_at_the_extremes():
 def test_rate_dependence_does_not_cite_095x_at_fast_rates():
     where = copy.deepcopy(WHERE["noise"])
     where["fast_rate"]["relative"], where["slow_rate"]["relative"] = 0.95, 1.02
-    text = jh.RateDependence().evidence(where, PIEZO)
+    text = jh.effects.RateDependence().evidence(where, PIEZO)
     assert "not concentrated at fast rates (0.95x" in text and NO_SUPPORT in text
     # A contrast between the terciles is support even when neither stands out.
     where["fast_rate"]["relative"], where["slow_rate"]["relative"] = 1.2, 0.7
-    text = jh.RateDependence().evidence(where, PIEZO)
+    text = jh.effects.RateDependence().evidence(where, PIEZO)
     assert "at fast rates is 1.71x that at slow rates" in text
     assert NO_SUPPORT not in text
     assert_quotes_only(text, where, 1.2 / 0.7)
@@ -233,7 +235,7 @@ def test_rate_dependence_does_not_cite_095x_at_fast_rates():
 def test_creep_without_holds_names_no_relaxation():
     where = copy.deepcopy(WHERE["noise"])
     where["after_hold"]["relative"] = float("nan")
-    text = jh.Creep().evidence(where, PIEZO)
+    text = jh.effects.Creep().evidence(where, PIEZO)
     assert "no holds" in text and "nan" not in text and NO_SUPPORT in text
 
 
@@ -331,9 +333,9 @@ def test_structural_evidence_claims_only_what_the_located_residual_shows(
 def test_push_pull_means_of_opposite_sign_are_not_asymmetry():
     odd = CYCLES["odd"]
     assert odd["push"]["mean"] > 0 > odd["pull"]["mean"]
-    text = jh.PushPullAsymmetry().evidence(odd, STRUCTURAL_MODEL)
+    text = jh.effects.PushPullAsymmetry().evidence(odd, STRUCTURAL_MODEL)
     assert "same sign" not in text and NO_SUPPORT in text
-    text = jh.PushPullAsymmetry().evidence(CYCLES["even"], STRUCTURAL_MODEL)
+    text = jh.effects.PushPullAsymmetry().evidence(CYCLES["even"], STRUCTURAL_MODEL)
     assert "same sign in push" in text and "cannot produce" in text
 
 
@@ -341,8 +343,8 @@ def test_degradation_names_what_the_fitted_values_show():
     where = copy.deepcopy(CYCLES["noise"])
     where["dissipated_energy"] = 10.0
     none = STRUCTURAL_MODEL.replace(strength_degradation=0.0)
-    assert "change by under 1%" in jh.Degradation().evidence(where, none)
-    text = jh.Degradation().evidence(where, STRUCTURAL_MODEL)
+    assert "change by under 1%" in jh.effects.Degradation().evidence(where, none)
+    text = jh.effects.Degradation().evidence(where, STRUCTURAL_MODEL)
     strength, _ = _degradation_figures(where, STRUCTURAL_MODEL)
     assert "mainly the strength changes" in text
     assert f"strength is down {strength:.0%}" in text
@@ -357,28 +359,30 @@ def test_degradation_names_what_the_fitted_values_show():
     )
     assert float(peak.saturation()) == pytest.approx(1.0)
     assert f"strength is down {1 - 1.5 ** (-1 / 1.5):.0%}" in (
-        jh.Degradation().evidence(where, peak)
+        jh.effects.Degradation().evidence(where, peak)
     )
     both = STRUCTURAL_MODEL.replace(stiffness_degradation=0.05)
-    assert "both strength and stiffness" in jh.Degradation().evidence(where, both)
+    assert "both strength and stiffness" in jh.effects.Degradation().evidence(
+        where, both
+    )
     where["late_peak_force_excess"] = 0.5 * where["overall_rms"]
-    text = jh.Degradation().evidence(where, STRUCTURAL_MODEL)
+    text = jh.effects.Degradation().evidence(where, STRUCTURAL_MODEL)
     assert "too small" in text and "does not produce" in text
 
 
 def test_pinching_quotes_the_fitted_slip_lock_and_no_unsupported_place():
-    text = jh.Pinching().evidence(CYCLES["noise"], STRUCTURAL_MODEL)
+    text = jh.effects.Pinching().evidence(CYCLES["noise"], STRUCTURAL_MODEL)
     assert "up to 40% of the hysteretic stiffness" in text and NO_SUPPORT in text
     assert "series slip" not in text
     # The series slip alone: quoted, and no slip-lock claimed at 0 %.
     slip = STRUCTURAL_MODEL.replace(pinch=0.0, slip_length=0.25)
-    text = jh.Pinching().evidence(CYCLES["noise"], slip)
+    text = jh.effects.Pinching().evidence(CYCLES["noise"], slip)
     assert "series slip moves 25% of the largest displacement beyond" in text
     assert "slip-lock" not in text and NO_SUPPORT in text
-    reading = jh.Pinching().reading(
-        jh.Pinching().values(slip),
+    reading = jh.effects.Pinching().reading(
+        jh.effects.Pinching().values(slip),
         {},
-        jh.Pinching().units(time="s", input="mm", output="kN"),
+        jh.effects.Pinching().units(time="s", input="mm", output="kN"),
     )
     assert "no slip-lock (pinch = 0)" in reading and "a series slip of 25" in reading
 
@@ -415,11 +419,13 @@ def test_units_follow_the_equations():
     assert set(units["drift"].values()) == {"µm"}
     assert units["rate_dependence"]["viscous"] == "µm"
     assert units["asymmetry"]["eps"] == "1/(V·s)"
-    ms = jh.Dynamics().units(time="ms", input="V", output="µm")
+    ms = jh.effects.Dynamics().units(time="ms", input="V", output="µm")
     assert ms["natural_frequency"] == "1/ms"
-    blank = jh.Creep().units(time="", input="", output="")
+    blank = jh.effects.Creep().units(time="", input="", output="")
     assert set(blank.values()) == {"(output units)/(input units)"}
-    assert jh.PushPullAsymmetry().units(time="sample", input="mm", output="kN") == {
+    assert jh.effects.PushPullAsymmetry().units(
+        time="sample", input="mm", output="kN"
+    ) == {
         "yield_skew": "1",
         "stiffness_skew": "1",
     }
@@ -463,13 +469,15 @@ def test_input_bias_reading_follows_the_models_sign():
     y = np.asarray(jh.simulate(model, path))
     moved = t[np.flatnonzero(np.abs(y - y[0]) > 1e-9)[0]]
     assert 0.94 < moved < 1.0
-    units = jh.InputBias().units(time="s", input="V", output="µm")
+    units = jh.effects.InputBias().units(time="s", input="V", output="µm")
     values = {"phi": 0.133, "input_lead": 0.0, "input_time": 0.01}
-    early = jh.InputBias().reading(values, {"phi": 0.004}, units)
+    early = jh.effects.InputBias().reading(values, {"phi": 0.004}, units)
     assert "sees the drive 133 ± 4 ms early" in early
-    late = jh.InputBias().reading({**values, "phi": -0.133}, {"phi": 0.004}, units)
+    late = jh.effects.InputBias().reading(
+        {**values, "phi": -0.133}, {"phi": 0.004}, units
+    )
     assert "sees the drive 133 ± 4 ms late" in late
-    lag = jh.InputBias().reading(
+    lag = jh.effects.InputBias().reading(
         {**values, "input_lead": -0.9, "input_time": 0.02},
         {"input_lead": 0.05, "input_time": 0.002},
         units,
@@ -478,12 +486,12 @@ def test_input_bias_reading_follows_the_models_sign():
 
 
 def test_input_bias_meaning_is_a_time_shift():
-    assert "time shift of the drive" in jh.InputBias().meaning
-    assert "first-order network" in jh.InputBias().meaning
+    assert "time shift of the drive" in jh.effects.InputBias().meaning
+    assert "first-order network" in jh.effects.InputBias().meaning
 
 
 def test_dynamics_reading_in_hertz_and_damping():
-    effect = jh.Dynamics()
+    effect = jh.effects.Dynamics()
     units = effect.units(time="s", input="V", output="µm")
     text = effect.reading(
         {"natural_frequency": 851.0, "damping_ratio": 0.3},

@@ -100,7 +100,7 @@ def test_progress_prints_stages_to_stderr_only_when_asked(capsys):
 
 
 def test_a_finding_is_decided_only_when_every_rival_lost_beyond_the_resolution():
-    validation = jh.Validation(
+    validation = jh.diagnosis.Validation(
         1.0, 0.5, 1.0, 0.5, 0.1, 0.1, 100.0, -5.0, 50.0, 1, -9.0, True
     )
     finding = Finding("creep", "", "", 50.0, {}, {}, {}, validation)
@@ -149,12 +149,12 @@ def test_a_drift_that_is_only_an_offset_reads_as_an_offset():
     units = dict.fromkeys(("offset", "trend", "curvature", "wander"), "um")
     values = {"offset": -1.6, "trend": 0.01, "curvature": -0.02, "wander": 0.003}
     errors = {"offset": 0.02, "trend": 0.05, "curvature": 0.03, "wander": 0.01}
-    text = jh.Drift().reading(values, errors, units)
+    text = jh.effects.Drift().reading(values, errors, units)
     assert text.startswith("a constant offset of the output, -1.6")
     assert "raises" not in text and "curvature puts" not in text
     # A trend beyond its standard errors is named.
     errors["trend"] = 0.001
-    text = jh.Drift().reading(values, errors, units)
+    text = jh.effects.Drift().reading(values, errors, units)
     assert "a linear trend raises it by 0.02" in text and "constant offset" not in text
 
 
@@ -162,18 +162,18 @@ def test_drift_evidence_names_an_offset_at_rest_only_when_the_numbers_show_one()
     t = np.linspace(0.0, 10.0, 10001)
     u = np.where(t < 3.0, 0.0, 75 * (1 - np.cos(2 * np.pi * (t - 3.0))))
     noise = 0.01 * np.random.default_rng(3).standard_normal(t.size)
-    offset = jh.locate(t, u, np.where(t < 3.0, -1.6, 0.0) + noise)
-    text = jh.Drift().evidence(offset, None)
+    offset = jh.families.locate(t, u, np.where(t < 3.0, -1.6, 0.0) + noise)
+    text = jh.effects.Drift().evidence(offset, None)
     assert re.search(r"near-constant -1\.(59|6)\b", text) and "sensor zero" in text
-    plain = jh.locate(t, u, noise)
-    assert "near-constant" not in jh.Drift().evidence(plain, None)
+    plain = jh.families.locate(t, u, noise)
+    assert "near-constant" not in jh.effects.Drift().evidence(plain, None)
 
 
 def test_a_gain_confined_to_the_fitted_samples_is_reported_as_cannot_tell():
     from jaxhyst._diagnose._ambiguity import confined
 
     def validation(fit_after, held_after, bic=-50.0, accepted=False):
-        return jh.Validation(
+        return jh.diagnosis.Validation(
             heldout_rmse_before=0.10,
             heldout_rmse_after=held_after,
             fit_rmse_before=0.16,

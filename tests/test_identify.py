@@ -118,7 +118,9 @@ def test_identify_recovers_truth_to_noise_floor():
 
 def test_identifiability_reports_the_scaling_symmetry():
     recording, _ = _recording(noise=0.0)
-    report = jh.identifiability(TRUTH, recording.input_path(), jnp.asarray(recording.y))
+    report = jh.identification.identifiability(
+        TRUTH, recording.input_path(), jnp.asarray(recording.y)
+    )
     assert len(report.unidentifiable) == 1
     direction = report.unidentifiable[0]
     # h -> c*h: relative changes k2 : A1 : beta1 : gamma1 = -1 : 1 : (1-n) : (1-n)
@@ -150,7 +152,7 @@ def test_gauge_fixed_fit_has_finite_standard_errors():
     assert all(np.isfinite(v) and v > 0 for v in report.standard_errors.values())
     # Without the gauge, the parameters on the redundant direction (the scaling
     # symmetry k2 : A1 : beta1 : gamma1) have no standard error; k1 and n keep theirs.
-    ungauged = jh.identifiability(
+    ungauged = jh.identification.identifiability(
         fit.model, recording.input_path(), jnp.asarray(recording.y)
     )
     errors = ungauged.standard_errors
@@ -163,7 +165,9 @@ SMALL_SWARM = jh.MPSO(num_particles=24, num_iterations=30)
 
 def _problem(recording):
     space = jh.ParameterSpace.default(TEMPLATE, recording)
-    return jh.Problem(space, recording.input_path(), jnp.asarray(recording.y), jh.RK4())
+    return jh.identification.Problem(
+        space, recording.input_path(), jnp.asarray(recording.y), jh.RK4()
+    )
 
 
 def _swarm_only(recording):
@@ -266,7 +270,7 @@ def test_fit_does_not_retrace_for_new_parameter_values():
             sample_rate=1000.0,
         ),
     )
-    problem = jh.Problem(
+    problem = jh.identification.Problem(
         space, recording.input_path(), jnp.asarray(recording.y), jh.RK4()
     )
 
@@ -284,11 +288,11 @@ def test_standard_errors_match_parameter_scatter_units():
     standard error of k1 (an output/input gain) by 10."""
     recording, _ = _recording(seed=4)
     space_free = ("k1", "k2", "beta1", "gamma1", "n")
-    base = jh.identifiability(
+    base = jh.identification.identifiability(
         TRUTH, recording.input_path(), jnp.asarray(recording.y), free=space_free
     )
     scaled_truth = TRUTH.replace(k1=10 * TRUTH.k1, k2=10 * TRUTH.k2)
-    scaled = jh.identifiability(
+    scaled = jh.identification.identifiability(
         scaled_truth,
         recording.input_path(),
         10 * jnp.asarray(recording.y),
@@ -303,16 +307,17 @@ def test_standard_errors_match_parameter_scatter_units():
 def test_swarm_samples_per_step_follows_the_input():
     t = np.arange(10001) / 1000.0
     slow = 2 - 2 * np.cos(0.2 * np.pi * t)  # u1: 1.26e-3 V per sample, 4 V range
-    assert jh.swarm_samples_per_step(slow) == 31  # 1 % of the range per step
-    assert jh.swarm_samples_per_step(slow, input_fraction=0.001) == 5  # budget
-    assert jh.swarm_samples_per_step(slow, input_fraction=0.001, max_steps=10000) == 3
-    assert jh.swarm_samples_per_step(slow, min_steps=1000) == 10
+    per_step = jh.identification.swarm_samples_per_step
+    assert per_step(slow) == 31  # 1 % of the range per step
+    assert per_step(slow, input_fraction=0.001) == 5  # budget
+    assert per_step(slow, input_fraction=0.001, max_steps=10000) == 3
+    assert per_step(slow, min_steps=1000) == 10
     fast = np.sin(2 * np.pi * 50 * t)  # 0.3 of the amplitude per sample
-    assert jh.swarm_samples_per_step(fast) == 5  # only the 2000-step budget
-    assert jh.swarm_samples_per_step(fast[:1001]) == 1
-    assert jh.swarm_samples_per_step(np.zeros(5000)) == 24  # no motion: min_steps
+    assert per_step(fast) == 5  # only the 2000-step budget
+    assert per_step(fast[:1001]) == 1
+    assert per_step(np.zeros(5000)) == 24  # no motion: min_steps
     with pytest.raises(ValueError, match="1-D"):
-        jh.swarm_samples_per_step(np.zeros((3, 3)))
+        jh.identification.swarm_samples_per_step(np.zeros((3, 3)))
 
 
 def test_swarm_objective_uses_every_sample():
@@ -357,46 +362,6 @@ def test_polish_residuals_carry_the_forward_mode_jacobian():
     np.testing.assert_allclose(gradient, plain.T @ cotangent, rtol=1e-10, atol=1e-12)
 
 
-def test_a_fit_compiles_its_loop_and_jacobian_one_shot_and_a_diagnosis_does_not(
-    monkeypatch,
-):
-    # A fit runs its swarm's loop and its identifiability Jacobian once: they
-    # compile for a quick first answer; inside a diagnosis (`repeated_runs`) the
-    # same fit compiles them for speed of running.
-    from jaxhyst import _program_store, _xla_options
-    from jaxhyst._diagnose import _diagnose
-
-    chosen = []
-    now = _program_store._OneShotOrUsual._now
-
-    def watched(self):
-        program = now(self)
-        chosen.append((self.__name__, program is self.one_shot))
-        return program
-
-    monkeypatch.setattr(_program_store._OneShotOrUsual, "_now", watched)
-    recording, _ = _recording()
-    jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=SMALL_SWARM)
-    assert {"_run_chunk", "_jacobian"} <= {name for name, _ in chosen}
-    assert all(one_shot for _, one_shot in chosen), chosen
-    chosen.clear()
-    with _xla_options.repeated_runs():
-        jh.identify(TEMPLATE, recording, key=jax.random.key(0), swarm=SMALL_SWARM)
-    assert chosen and not any(one_shot for _, one_shot in chosen), chosen
-    # `diagnose` runs its work in that block.
-    monkeypatch.setattr(
-        _diagnose, "_diagnose", lambda *args, **kwargs: _fit_mode_inside()
-    )
-    assert jh.diagnose(recording, key=jax.random.key(0)) == "usual"
-
-
-def _fit_mode_inside() -> str:
-    from jaxhyst import _xla_options
-
-    with _xla_options.one_shot():
-        return "one-shot" if _xla_options.in_one_shot() else "usual"
-
-
 def test_the_polish_program_scores_with_one_call_of_the_loss(monkeypatch):
     # The start and every window are scored by one call site: a second one
     # compiled the whole simulation again (0.4 s of the polish's 1 s compile).
@@ -414,7 +379,7 @@ def test_the_polish_program_scores_with_one_call_of_the_loss(monkeypatch):
         return scored(*args)
 
     monkeypatch.setattr(_polish, "problem_rmse", counted)
-    eqx.filter_make_jaxpr(_polish._optimistix_loop._fn)(
+    eqx.filter_make_jaxpr(_polish._optimistix_loop)(
         *polish._loop_arguments(problem, z0)
     )
     assert len(calls) == 1

@@ -23,7 +23,7 @@ def _sine_record(frequency, amplitude, periods, *, seed, name, noise=1e-3):
 
 
 def _problem(recording, space, weights=None):
-    return jh.Problem(
+    return jh.identification.Problem(
         space, recording.input_path(), jnp.asarray(recording.y), jh.RK4(), weights
     )
 
@@ -33,11 +33,11 @@ def test_stacked_problem_is_the_sum_of_its_records():
     # sum of squares is exactly the records' own sums.
     a, _ = _sine_record(1.0, 80.0, 2, seed=0, name="a")
     b, _ = _sine_record(2.5, 50.0, 3, seed=1, name="b")
-    space = jh.ParameterSpace.default(TEMPLATE, jh.joint_scales([a, b]))
+    space = jh.ParameterSpace.default(TEMPLATE, jh.identification.joint_scales([a, b]))
     z = space.from_model(TRUTH.replace(A1=space.template.A1)) + 0.01
     weights_b = jnp.asarray(np.random.default_rng(2).uniform(0, 1, b.num_samples))
     pa, pb = _problem(a, space), _problem(b, space, weights_b)
-    stacked = jh.stack_problems([pa, pb])
+    stacked = jh.identification.stack_problems([pa, pb])
     assert stacked.measured.shape == (2, max(a.num_samples, b.num_samples))
 
     def squares(problem, n):
@@ -73,7 +73,7 @@ def test_joint_fit_recovers_the_model_and_reports_each_recording():
     both = np.concatenate([a.y, b.y])
     np.testing.assert_allclose(
         fit.metrics["rmse"],
-        jh.rmse(both, np.concatenate(fit.predicted)),
+        jh.metrics.rmse(both, np.concatenate(fit.predicted)),
         rtol=1e-12,
     )
     data = fit.to_dict()

@@ -164,7 +164,7 @@ def test_oscillator_default_bounds_are_oscillator_space(nu_free):
     log = ("mass", "damping", "stiffness", "alpha")
     space = jh.ParameterSpace.default(OSCILLATOR, RECORDING, nu_free=nu_free)
     _check_space(space, OSCILLATOR, expected, log)
-    reference = jh.oscillator_space(OSCILLATOR, RECORDING, nu_free=nu_free)
+    reference = jh.periodic.oscillator_space(OSCILLATOR, RECORDING, nu_free=nu_free)
     assert space.names == reference.names
     assert space.log_scale == reference.log_scale
     np.testing.assert_array_equal(space.lower, reference.lower)
@@ -279,7 +279,7 @@ def test_models_without_a_shape_say_so():
 
 def test_search_box_holds_float_bounds():
     bounds = {"k1": (np.float32(-1), 2)}
-    box = jh.SearchBox(PIEZO, bounds, ["k1"])  # pyright: ignore[reportArgumentType]
+    box = jh.identification.SearchBox(PIEZO, bounds, ["k1"])  # pyright: ignore[reportArgumentType]
     assert box.bounds == {"k1": (-1.0, 2.0)}
     assert type(box.bounds["k1"][0]) is float
     assert box.log_scale == ("k1",)

@@ -17,7 +17,7 @@ import jaxhyst._diagnose._diagnose as engine
 
 
 def _trial(effect: str, after: float, *, dependents=()):
-    score = jh.Score(
+    score = jh.diagnosis.Score(
         effect, 1.0, 1, -1.0, 0.0, True, {f"{effect}_gain": 1.0}, np.zeros((1, 1))
     )
     return engine._Trial(
@@ -48,7 +48,7 @@ def pair_refits(monkeypatch):
 
     monkeypatch.setattr(engine, "_refit_with", refit_with)
     ctx = types.SimpleNamespace(
-        family=jh.StructuralFamily(),
+        family=jh.families.StructuralFamily(),
         sample_rate=1.0,
         duration=1.0,
         progress=types.SimpleNamespace(say=lambda message: None),

@@ -15,7 +15,7 @@ PERIOD = 8192
 
 
 def _has(name: str) -> bool:
-    return (jh.default_data_dir() / name).is_dir()
+    return (jh.datasets.default_data_dir() / name).is_dir()
 
 
 needs_benchmark = pytest.mark.skipif(
@@ -30,7 +30,7 @@ needs_piezo = pytest.mark.skipif(
 
 @pytest.fixture(scope="module")
 def benchmark():
-    return jh.load_bouc_wen_benchmark()
+    return jh.datasets.load_bouc_wen_benchmark()
 
 
 def _rmse(a, b) -> float:
@@ -48,14 +48,14 @@ def test_bandlimited_upsample_is_exact_for_band_limited_signals():
     def f(x):
         return sum(a * np.cos(2 * np.pi * k * x + k) for k, a in lines)
 
-    fine = jh.bandlimited_upsample(f(t), factor)
+    fine = jh.periodic.bandlimited_upsample(f(t), factor)
     assert fine.shape == (n * factor,)
     np.testing.assert_allclose(fine[::factor], f(t), atol=1e-12)
     np.testing.assert_allclose(
         fine, f(np.arange(n * factor) / (n * factor)), atol=1e-12
     )
     with pytest.raises(ValueError, match="factor"):
-        jh.bandlimited_upsample(f(t), 0)
+        jh.periodic.bandlimited_upsample(f(t), 0)
 
 
 def test_average_periods_and_noise():
@@ -66,16 +66,16 @@ def test_average_periods_and_noise():
     y = clean + sigma * rng.standard_normal(clean.size)
     y[:period] += 5.0  # a "transient" in the first period
     rec = jh.Recording(np.arange(u.size) * 0.01, u, y)
-    avg = jh.average_periods(rec, period, skip=1)
+    avg = jh.periodic.average_periods(rec, period, skip=1)
     assert avg.periods == 4 and avg.recording.num_samples == period
     assert avg.noise_sigma == pytest.approx(sigma, rel=0.1)
     assert avg.mean_sigma == pytest.approx(avg.noise_sigma / 2)
     assert _rmse(avg.recording.y, clean[:period]) == pytest.approx(sigma / 2, rel=0.2)
     with pytest.raises(ValueError, match="whole number"):
-        jh.average_periods(rec, 300)
+        jh.periodic.average_periods(rec, 300)
     broken = jh.Recording(rec.t, rec.u + np.arange(u.size) * 1e-3, rec.y)
     with pytest.raises(ValueError, match="not periodic"):
-        jh.average_periods(broken, period)
+        jh.periodic.average_periods(broken, period)
 
 
 def test_periodic_simulation_reaches_steady_state():
@@ -86,13 +86,13 @@ def test_periodic_simulation_reaches_steady_state():
     t = np.arange(period) / rate
     # Periodic over the 2 s window: whole numbers of cycles.
     u = 40 * np.sin(2 * np.pi * 7.5 * t) + 30 * np.sin(2 * np.pi * 31.5 * t + 1.0)
-    short = jh.PeriodicSimulation(warmup=period / rate, upsample=2)
-    long = jh.PeriodicSimulation(warmup=3 * period / rate, upsample=2)
+    short = jh.periodic.PeriodicSimulation(warmup=period / rate, upsample=2)
+    long = jh.periodic.PeriodicSimulation(warmup=3 * period / rate, upsample=2)
     y_short = short(model, u, 1 / rate)
     y_long = long(model, u, 1 / rate)
     assert y_short.shape == (period,)
     np.testing.assert_allclose(y_short, y_long, atol=1e-12 + 1e-9 * np.ptp(y_long))
-    fine = jh.bandlimited_upsample(u, 2)
+    fine = jh.periodic.bandlimited_upsample(u, 2)
     path = jh.InputPath(
         0.0,
         1 / (2 * rate),
@@ -127,7 +127,7 @@ def test_true_parameters_reproduce_the_multisine_test_set(benchmark):
     period to within 5e-7 m (measured 2.5e-7 m: the rest is the generator's Newmark
     integration and FIR decimation). A wrong equation fails by orders of magnitude."""
     ms = benchmark.test_multisine
-    simulation = jh.PeriodicSimulation(warmup=2.0, upsample=4)
+    simulation = jh.periodic.PeriodicSimulation(warmup=2.0, upsample=4)
     truth = jh.HystereticOscillator.benchmark_truth()
     assert _rmse(simulation(truth, ms.u, ms.dt), ms.y) < 5e-7
     wrong = {
@@ -140,7 +140,7 @@ def test_true_parameters_reproduce_the_multisine_test_set(benchmark):
         # (diverging to NaN also counts as not reproducing it)
         assert not _rmse(simulation(model, ms.u, ms.dt), ms.y) < 1e-5, what
     # Piecewise-linear input at 750 Hz is not good enough for this benchmark.
-    linear = jh.PeriodicSimulation(
+    linear = jh.periodic.PeriodicSimulation(
         warmup=2.0,
         upsample=1,
         solver=jh.RK4(substeps=20),
@@ -161,11 +161,11 @@ def test_true_parameters_reproduce_the_sine_sweep(benchmark):
 
 @needs_benchmark
 def test_training_noise_level(benchmark):
-    avg = jh.average_periods(benchmark.train, PERIOD, skip=1)
+    avg = jh.periodic.average_periods(benchmark.train, PERIOD, skip=1)
     assert avg.periods == 4
     # The benchmark specifies 8e-6 m band-limited output noise.
     assert 6e-6 < avg.noise_sigma < 9e-6
-    simulation = jh.PeriodicSimulation()
+    simulation = jh.periodic.PeriodicSimulation()
     truth = jh.HystereticOscillator.benchmark_truth()
     residual = _rmse(
         simulation(truth, avg.recording.u, avg.recording.dt), avg.recording.y
@@ -182,9 +182,9 @@ def test_fit_on_two_training_periods_converges(benchmark):
     short = jh.Recording(
         train.t[: 3 * PERIOD], train.u[: 3 * PERIOD], train.y[: 3 * PERIOD]
     )
-    avg = jh.average_periods(short, PERIOD, skip=1)
+    avg = jh.periodic.average_periods(short, PERIOD, skip=1)
     template = jh.HystereticOscillator(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
-    fit = jh.fit_periodic(
+    fit = jh.periodic.fit_periodic(
         template,
         avg.recording,
         key=jax.random.key(1),
@@ -196,7 +196,7 @@ def test_fit_on_two_training_periods_converges(benchmark):
         assert float(value) == pytest.approx(float(truth[name]), rel=0.01), name
     assert fit.metrics["rmse"] < 1.2 * avg.mean_sigma
     ms = benchmark.test_multisine
-    y = jh.PeriodicSimulation()(fit.model, ms.u, ms.dt)
+    y = jh.periodic.PeriodicSimulation()(fit.model, ms.u, ms.dt)
     assert _rmse(y, ms.y) < 1e-6
     report = fit.identifiability
     assert not report.unidentifiable
@@ -209,7 +209,7 @@ def test_fit_on_two_training_periods_converges(benchmark):
 
 @needs_piezo
 def test_piezo_shape_and_offset():
-    rec = jh.load_piezo_actuator()
+    rec = jh.datasets.load_piezo_actuator()
     assert rec.num_samples == 50001
     assert rec.sample_rate == pytest.approx(5000.0)
     step = int(np.argmax(np.abs(np.diff(rec.u)))) + 1

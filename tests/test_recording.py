@@ -135,7 +135,7 @@ def test_option_types():
 
 def test_passes_through_jit():
     rec = _recording()
-    value = jax.jit(lambda r: jh.rmse(r.y, 0 * r.y))(rec)
+    value = jax.jit(lambda r: jh.metrics.rmse(r.y, 0 * r.y))(rec)
     assert float(value) == pytest.approx(np.sqrt(np.mean(rec.y**2)))
 
 

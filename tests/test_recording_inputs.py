@@ -58,7 +58,7 @@ def test_input_path_carries_the_channels():
     stacked = stack_inputs([path, short])
     assert stacked.channels is not None and stacked.channels.shape == (2, 1, 200)
     assert float(stacked.channels[1, 0, -1]) == pytest.approx(v[50])
-    problem = jh.Problem(
+    problem = jh.identification.Problem(
         jh.ParameterSpace.default(jh.PiezoBoucWen(1.0, 1.0, 1.0, 1.0, 1.0, 1.5), r),
         path,
         r.y,

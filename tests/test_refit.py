@@ -31,7 +31,7 @@ def _structural():
     base = jh.BoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 0.0, 1.5)
     model = jh.StructuralBoucWen.around(base, path, 20.0)
     on = dict(strength_degradation=0.2, pinch=0.5, pinch_width=0.3, yield_skew=0.1)
-    return jh.StructuralFamily(), model, model.replace(**on, k=12.0), x
+    return jh.families.StructuralFamily(), model, model.replace(**on, k=12.0), x
 
 
 RATE = 3004.8
@@ -52,7 +52,7 @@ def _damper():
     path = jh.InputPath.from_samples(t, 0.2 * x, channels=v[None])
     force = np.asarray(jh.simulate(base, path, jh.RK4(substeps=4)))
     recording = jh.Recording(t, 0.2 * x, force, more_inputs={"command": v})
-    family = jh.DamperFamily()
+    family = jh.families.DamperFamily()
     model = family.extend(base, recording)
     on = dict(field_alpha=3.0, command_lag=0.005, rolloff=0.1, skew=0.2, c0=30.0)
     return family, model, model.replace(**on), recording.input_path()
@@ -63,7 +63,7 @@ def _piezo():
     base = jh.PiezoBoucWen.paper_table4(3)
     model = jh.ExtendedPiezo.around(base, path)
     on = dict(skew=0.1, rate_gain=0.05, creep_fast=0.01, quad=0.02)
-    return jh.PiezoFamily(), model, model.replace(**on), path
+    return jh.families.PiezoFamily(), model, model.replace(**on), path
 
 
 def _case(which):

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 import jaxhyst as jh
-from jaxhyst import PiezoFamily
 from jaxhyst._diagnose._remainder import remainder
 from jaxhyst._diagnose._results import Advice, Ambiguity, DiagnosisStep, Rival
 from jaxhyst._models.extended import ExtendedPiezo
@@ -35,6 +34,7 @@ from jaxhyst._report import (
     write_fit_figures,
 )
 from jaxhyst._serialise import jsonable, write_json
+from jaxhyst.families import PiezoFamily
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -67,7 +67,7 @@ def diagnosis(recording):
     final_model = ExtendedPiezo.around(TRUTH, inputs).replace(eps=0.01, quad=0.0)
     baseline = jh.error_metrics(y, base_predicted)
     final = jh.error_metrics(y, final_predicted)
-    validation = jh.Validation(
+    validation = jh.diagnosis.Validation(
         heldout_rmse_before=0.01,
         heldout_rmse_after=0.002,
         fit_rmse_before=0.01,
@@ -100,7 +100,7 @@ def diagnosis(recording):
     directions = np.zeros((y.size, 1))
     rounds = [
         [
-            jh.Score(
+            jh.diagnosis.Score(
                 "asymmetry",
                 420.0,
                 2,
@@ -112,7 +112,7 @@ def diagnosis(recording):
                 1e-5,
                 validation,
             ),
-            jh.Score(
+            jh.diagnosis.Score(
                 "drift",
                 3.0,
                 3,
@@ -368,14 +368,14 @@ def test_one_base_rmse_and_one_improvement_per_report(
     assert set(quoted) == {change.percent_text}, quoted
 
     # Every base RMSE: the summary sentence, the base row, the console.
-    (sentence,) = [line for line in text.splitlines() if "falls from" in line]
+    (sentence,) = (line for line in text.splitlines() if "falls from" in line)
     from_base = re.search(r"falls from (\S+) \(base model\)", sentence)
     assert from_base is not None, sentence
     base_rows = [cells for cells in rows if cells[1].strip().startswith("base")]
     assert len(base_rows) == 1, [cells[1] for cells in rows]
-    (console_base,) = [
+    (console_base,) = (
         line for line in console.splitlines() if line.startswith("base model")
-    ]
+    )
     console_rmse = re.search(r"RMSE on all samples (\S+)", console_base)
     assert console_rmse is not None, console_base
     found = {from_base.group(1), base_rows[0][-2].strip(), console_rmse.group(1)}
@@ -407,10 +407,10 @@ def test_plots_draw_on_the_axes_they_are_given(recording, tmp_path):
     figure = Figure(figsize=(10.0, 6.0), layout="constrained")
     (loop, trend), (upper, lower) = figure.subplots(2, 2)
     y = np.asarray(recording.y)
-    assert jh.plot_loop(recording.u, {"measured": y}, ax=loop) is loop
+    assert jh.report.plot_loop(recording.u, {"measured": y}, ax=loop) is loop
     errors = {"model": np.abs(y - np.mean(y))}
-    assert jh.plot_error_trend(recording.t, errors, ax=trend) is trend
-    drawn = jh.plot_time_history(
+    assert jh.report.plot_error_trend(recording.t, errors, ax=trend) is trend
+    drawn = jh.report.plot_time_history(
         recording.t, recording.u, {"measured": y}, axes=[upper, lower]
     )
     assert list(drawn) == [upper, lower]
@@ -418,12 +418,12 @@ def test_plots_draw_on_the_axes_they_are_given(recording, tmp_path):
     for axis in (loop, trend, upper, lower):
         assert axis.get_lines()
     assert loop.get_lines()[0].get_xdata().shape == y.shape
-    path = jh.save_figure(figure, tmp_path / "composed.png")
+    path = jh.report.save_figure(figure, tmp_path / "composed.png")
     assert path.read_bytes().startswith(PNG_SIGNATURE)
     # Saving refuses to replace a file and names the fix; an Axes saves its figure.
     with pytest.raises(FileExistsError, match="pass overwrite=True"):
-        jh.save_figure(loop, path)
-    assert jh.save_figure(loop, path, overwrite=True) == path
+        jh.report.save_figure(loop, path)
+    assert jh.report.save_figure(loop, path, overwrite=True) == path
 
 
 class _Page(HTMLParser):
@@ -572,7 +572,7 @@ def test_compensation_report(tmp_path):
     written = write_compensation_report(
         result, reference, folder / "report.md", model=model, model_file="m.json"
     )
-    names = ["report.md", "report.html", *jh.COMPENSATION_FIGURES.values()]
+    names = ["report.md", "report.html", *jh.report.COMPENSATION_FIGURES.values()]
     assert [path.name for path in written] == names
     text = (folder / "report.md").read_text(encoding="utf-8")
     assert text.startswith("# Compensation\n\nModel `PiezoBoucWen` from `m.json`; ")

@@ -18,7 +18,7 @@ import jaxhyst as jh
 import jaxhyst._diagnose._diagnose as engine
 
 
-FAMILY = jh.StructuralFamily()
+FAMILY = jh.families.StructuralFamily()
 MODEL = jh.StructuralBoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 1.5)
 TAGS = FAMILY.effect_names
 
@@ -73,7 +73,7 @@ def stage(monkeypatch):
 
         monkeypatch.setattr(engine, "_heldout_comparison", comparison or by_effect)
         trial = engine._Trial(
-            jh.Score("x", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
+            jh.diagnosis.Score("x", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
             MODEL,
             np.zeros(4),
             validation(),
@@ -128,7 +128,7 @@ def test_among_rivals_the_record_cannot_tell_apart_the_lower_held_out_error_stay
     finding = state.findings[0]
     assert not finding.decided
     assert {r.effect for r in finding.rivals} == {"drift", "pinching"}
-    (said,) = [a for a in state.ambiguities if "cannot tell asymmetry" in a.statement]
+    (said,) = (a for a in state.ambiguities if "cannot tell asymmetry" in a.statement)
     assert "held-out error is the lowest" in said.statement
     assert set(said.undecided) == {"asymmetry", "drift", "pinching"}
 
@@ -146,7 +146,7 @@ def test_a_close_rival_never_validated_alone_does_not_replace_the_finding(stage)
     )
     assert swaps == []
     assert state.adopted == ("drift",)
-    (said,) = [a for a in state.ambiguities if "cannot tell drift" in a.statement]
+    (said,) = (a for a in state.ambiguities if "cannot tell drift" in a.statement)
     assert "adopted first; the better rival was never validated alone" in (
         said.statement
     )
@@ -164,7 +164,7 @@ def test_an_effect_replaced_within_the_resolution_does_not_come_back(stage):
         "drift", {"drift": 0.0, "asymmetry": 0.0}, comparison=rival_always_better
     )
     assert swaps == [("drift", "asymmetry", False)]
-    (said,) = [a for a in state.ambiguities if "cannot tell asymmetry" in a.statement]
+    (said,) = (a for a in state.ambiguities if "cannot tell asymmetry" in a.statement)
     assert "it replaced drift first" in said.statement
 
 
@@ -178,7 +178,7 @@ def test_a_replacement_supersedes_what_was_said_of_it_before(monkeypatch):
     ctx = types.SimpleNamespace(
         family=types.SimpleNamespace(describe=lambda where: ""),
         progress=types.SimpleNamespace(say=lambda message: None),
-        policy=jh.AdoptionPolicy(),
+        policy=jh.families.AdoptionPolicy(),
         y=np.ones(4),
         hold_mask=np.ones(4, bool),
         fit_mask=np.ones(4, bool),
@@ -199,7 +199,7 @@ def test_a_replacement_supersedes_what_was_said_of_it_before(monkeypatch):
         ),
     )
     trial = engine._Trial(
-        jh.Score("asymmetry", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
+        jh.diagnosis.Score("asymmetry", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
         MODEL,
         np.zeros(4),
         validation(),
@@ -231,7 +231,7 @@ def _swap_setup(trial_model):
     drift = FAMILY.effect("drift")
     current = MODEL.replace(yield_skew=0.1, stiffness_skew=0.05, k=11.0)
     trial = engine._Trial(
-        jh.Score("drift", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
+        jh.diagnosis.Score("drift", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1))),
         trial_model,
         np.full(4, 7.0),
         validation(),

@@ -343,13 +343,13 @@ def test_sum_squared_error_matches_simulate(model, solver):
     predicted = jh.simulate(model, path, solver)
     for w in (None, weights):
         expected = jnp.sum(((1.0 if w is None else w) * (predicted - measured)) ** 2)
-        got = jh.sum_squared_error(model, path, measured, solver, weights=w)
+        got = jh.metrics.sum_squared_error(model, path, measured, solver, weights=w)
         np.testing.assert_allclose(got, expected, rtol=1e-10)
 
 
 def test_sum_squared_error_bad_arguments():
     path = multisine_path(rate=200.0, duration=1.0)
     with pytest.raises(ValueError, match="measured must have shape"):
-        jh.sum_squared_error(piezo_model(), path, jnp.zeros(3))
+        jh.metrics.sum_squared_error(piezo_model(), path, jnp.zeros(3))
     with pytest.raises(TypeError, match="sum_squared_error: model"):
-        jh.sum_squared_error("piezo", path, jnp.zeros(path.num_samples))
+        jh.metrics.sum_squared_error("piezo", path, jnp.zeros(path.num_samples))

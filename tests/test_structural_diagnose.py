@@ -46,7 +46,7 @@ def test_every_effect_off_is_the_plain_bouc_wen_force():
         rtol=0,
         atol=1e-12,
     )
-    family = jh.StructuralFamily()
+    family = jh.families.StructuralFamily()
     switched_on = extended.replace(
         strength_degradation=0.2, pinch=0.5, yield_skew=0.1, offset=0.3
     )
@@ -58,7 +58,7 @@ def test_every_effect_off_is_the_plain_bouc_wen_force():
         np.testing.assert_allclose(
             jh.simulate(back, path, solver), jh.simulate(switched_on, path, solver)
         )
-    assert jh.STRUCTURAL_EFFECT_NAMES == (
+    assert jh.families.STRUCTURAL_EFFECT_NAMES == (
         "degradation",
         "pinching",
         "asymmetry",
@@ -210,7 +210,7 @@ def test_degradation_rates_are_floored_at_zero_in_every_fit():
 def test_hold_out_takes_whole_cycles_from_every_repeated_level():
     x = _protocol(levels=(1, 2, 3, 4), cycles=3, per_cycle=40)
     recording = jh.Recording.quasi_static(x, x)
-    fit = jh.StructuralFamily().holdout(recording, 0.3)
+    fit = jh.families.StructuralFamily().holdout(recording, 0.3)
     held = ~fit
     assert 0.15 < held.mean() < 0.4
     # Whole cycles: held-out samples come in runs of one cycle's length.
@@ -228,7 +228,7 @@ def test_structural_diagnosis_rejects_records_it_cannot_read():
     t = np.arange(300.0)
     ramp = jh.Recording.quasi_static(t, 2 * t)  # no reversal: not a cyclic test
     with pytest.raises(ValueError, match="reversal"):
-        jh.diagnose(ramp, key=jax.random.key(0), family=jh.StructuralFamily())
+        jh.diagnose(ramp, key=jax.random.key(0), family=jh.families.StructuralFamily())
     with pytest.raises(TypeError, match="family"):
         jh.diagnose(ramp, key=jax.random.key(0), family="bouc-wen")  # type: ignore[arg-type]
     with pytest.raises(jh.RecordingError, match="samples"):
@@ -241,7 +241,7 @@ def test_structural_diagnosis_rejects_records_it_cannot_read():
 def test_a_large_concealed_pinching_is_named_and_a_clean_test_is_not():
     x = _protocol()
     truth = _truth(x)
-    family = jh.StructuralFamily()
+    family = jh.families.StructuralFamily()
     swarm = jh.MPSO(num_particles=48, num_iterations=60)
     pinched, sigma = _record(x, truth.replace(pinch=0.8, pinch_width=0.3))
     diagnosis = jh.diagnose(pinched, key=jax.random.key(0), family=family, swarm=swarm)
@@ -268,9 +268,9 @@ def test_a_better_basin_for_the_base_is_not_credited_to_an_effect():
     truth = _truth(x)
     clean, sigma = _record(x, truth, seed=2)
     poor = truth.replace(k=0.9 * float(truth.k), beta=0.35, gamma=0.15)
-    family = jh.StructuralFamily()
+    family = jh.families.StructuralFamily()
     # Every candidate refitted (a lax score gate), so that the null refit decides.
-    careful = jh.AdoptionPolicy(
+    careful = jh.families.AdoptionPolicy(
         significance=0.5, refit_runners_up=True, null_refit=True, noise_bound=True
     )
     diagnosis = jh.diagnose(
@@ -280,7 +280,7 @@ def test_a_better_basin_for_the_base_is_not_credited_to_an_effect():
     assert diagnosis.final_rmse < 1.2 * sigma
     rejected = [c.get("rejected", "") for r in diagnosis.candidates for c in r]
     assert any("better basin" in text for text in rejected)
-    credulous = jh.AdoptionPolicy(significance=0.5, noise_bound=True)
+    credulous = jh.families.AdoptionPolicy(significance=0.5, noise_bound=True)
     fooled = jh.diagnose(
         clean, key=jax.random.key(0), family=family, base=poor, policy=credulous
     )
@@ -291,7 +291,7 @@ def test_a_gain_the_record_cannot_resolve_is_said_so():
     from jaxhyst._diagnose._ambiguity import unresolved
 
     def validation(after, resolution, accepted=False):
-        return jh.Validation(
+        return jh.diagnosis.Validation(
             heldout_rmse_before=1.0,
             heldout_rmse_after=after,
             fit_rmse_before=1.0,
@@ -346,7 +346,7 @@ def test_the_base_swarm_finds_a_small_yield_displacement(seed):
     case = structural_recording(
         (), key=jax.random.key(seed), protocol="earthquake", points=1000
     )
-    family = jh.StructuralFamily()
+    family = jh.families.StructuralFamily()
     rec = case.recording
     options = dict(solver=family.solver(rec), analyse=False, throw=False)
     searched = jh.identify(
@@ -415,7 +415,7 @@ def test_structural_refits_stay_in_table_2():
     from jaxhyst._diagnose._effects.base import RefitScales
     from jaxhyst._diagnose._refit import RefitSettings, refit
 
-    class Unconstrained(jh.StructuralFamily):
+    class Unconstrained(jh.families.StructuralFamily):
         stable_fits = False
 
     x = _protocol(levels=(1, 2, 3, 4), per_cycle=60)
@@ -446,7 +446,7 @@ def test_structural_refits_stay_in_table_2():
 
     loose = refitted(Unconstrained())
     assert not jh.is_bibo_stable(*loose.bouc_wen_shape())
-    kept = refitted(jh.StructuralFamily())
+    kept = refitted(jh.families.StructuralFamily())
     assert jh.is_bibo_stable(*kept.bouc_wen_shape())
     # At the edge the data push it to (started at beta + gamma = 0.5).
     assert 0 < float(kept.beta + kept.gamma) < 0.01
@@ -468,7 +468,7 @@ def test_a_slip_gap_beside_degradation_is_named_pinching_on_held_out_cycles():
         points=2000,
     )
     diagnosis = jh.diagnose(
-        case.recording, key=diagnose_key, family=jh.StructuralFamily()
+        case.recording, key=diagnose_key, family=jh.families.StructuralFamily()
     )
     assert "pinching" in diagnosis.effects
     assert set(diagnosis.effects) <= {"degradation", "pinching"}
@@ -491,7 +491,10 @@ def test_a_stiffening_outside_the_catalogue_is_reported_as_unexplained():
     recording = jh.Recording.quasi_static(x, noisy, name="hardening")
     swarm = jh.MPSO(num_particles=48, num_iterations=60)
     diagnosis = jh.diagnose(
-        recording, key=jax.random.key(0), family=jh.StructuralFamily(), swarm=swarm
+        recording,
+        key=jax.random.key(0),
+        family=jh.families.StructuralFamily(),
+        swarm=swarm,
     )
     assert diagnosis.findings == []
     assert diagnosis.final_rmse > 2 * sigma
@@ -516,15 +519,15 @@ def test_an_effect_the_score_cannot_screen_is_refitted_and_judged_held_out(
     # stands in for it here (a quick structural record).
     from jaxhyst._diagnose._effects.drift import Drift
 
-    assert not jh.DamperFamily().effect("driver_lag").score_screens()
-    assert all(e.score_screens() for e in jh.StructuralFamily().catalogue)
+    assert not jh.families.DamperFamily().effect("driver_lag").score_screens()
+    assert all(e.score_screens() for e in jh.families.StructuralFamily().catalogue)
     monkeypatch.setattr(Drift, "score_screens", lambda self: False)
     x = _protocol()
     clean, sigma = _record(x, _truth(x), seed=1)
     diagnosis = jh.diagnose(
         clean,
         key=jax.random.key(0),
-        family=jh.StructuralFamily(),
+        family=jh.families.StructuralFamily(),
         swarm=jh.MPSO(num_particles=48, num_iterations=60),
     )
     drift = next(s for s in diagnosis.rounds[0] if s.effect == "drift")

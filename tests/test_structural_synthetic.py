@@ -96,7 +96,7 @@ def test_effects_change_only_the_effects():
     )
 
 
-@pytest.mark.parametrize("effect", jh.STRUCTURAL_EFFECT_NAMES)
+@pytest.mark.parametrize("effect", jh.families.STRUCTURAL_EFFECT_NAMES)
 @pytest.mark.parametrize("protocol", ["cyclic", "earthquake"])
 def test_requested_size_is_met(effect, protocol):
     case = _case((effect,), seed=11, protocol=protocol, size_sigmas=6.0)
@@ -232,8 +232,8 @@ def test_bad_arguments_raise_clear_errors(kwargs, error, words):
 def test_effect_names_are_the_catalogues():
     from jaxhyst.synthetic._structural_sizing import _SIZERS
 
-    assert tuple(_SIZERS) == jh.STRUCTURAL_EFFECT_NAMES
-    assert tuple(STRUCTURAL_FORMS) == jh.STRUCTURAL_EFFECT_NAMES
+    assert tuple(_SIZERS) == jh.families.STRUCTURAL_EFFECT_NAMES
+    assert tuple(STRUCTURAL_FORMS) == jh.families.STRUCTURAL_EFFECT_NAMES
 
 
 def test_bad_protocol_arguments():

@@ -523,7 +523,6 @@ def test_a_run_is_init_then_steps_with_the_halves_of_its_key():
 def test_a_run_compiles_its_loop_and_nothing_else():
     lower, upper = jax.block_until_ready((jnp.zeros(3), jnp.ones(3)))
     swarm = MPSO(num_particles=9, num_iterations=3)
-    _, lowered = lowered_while(
-        lambda: run_swarm(sphere, lower, upper, swarm, jr.key(0))
-    )
+    key = jax.block_until_ready(jr.key(0))
+    _, lowered = lowered_while(lambda: run_swarm(sphere, lower, upper, swarm, key))
     assert lowered == ["jit(_run_chunk)"], lowered

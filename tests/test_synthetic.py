@@ -84,7 +84,7 @@ def test_clean_recording_residual_is_the_noise(clean):
     assert 5e-4 <= clean.sigma / np.ptp(y_base) <= 2e-3
 
 
-@pytest.mark.parametrize("effect", jh.EFFECT_NAMES)
+@pytest.mark.parametrize("effect", jh.families.EFFECT_NAMES)
 def test_effect_size_is_the_requested_number_of_sigmas(effect, clean):
     case = _case((effect,), seed=3, size_sigmas=5.0)
     assert case.effects == (effect,)
@@ -162,7 +162,7 @@ def test_effect_names_are_the_catalogues():
 
     # One truth form per catalogue effect, in the catalogue's order (the order sets
     # each effect's key, so it is part of what a seed means).
-    assert tuple(_SIZERS) == jh.EFFECT_NAMES
+    assert tuple(_SIZERS) == jh.families.EFFECT_NAMES
 
 
 def test_truth_with_every_effect_off_is_the_base_model():

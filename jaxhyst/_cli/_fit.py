@@ -8,7 +8,6 @@ from .._evaluate import default_solver
 from .._identification._corrected import CORRECTED_STAGES, identify_corrected
 from .._identification._identify import Fit, identify
 from .._model_files import EMBEDDED_KEY, model_file_dict
-from .._models.bouc_wen import BoucWen
 from .._opensees import opensees_json
 from .._plots import require_matplotlib
 from .._recording import Recording
@@ -174,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
         data["recordings"] = [_recording_json(r) for r in recordings]
         data["command"] = {"model": args.model, "seed": args.seed}
         data["window"] = window(args, recordings[0])
-        if isinstance(fit.model, BoucWen):
+        if fit.model.has_opensees_material:
             data.update(opensees_json(fit.model, recordings[0]))
         if stages is not None:
             data["stages"] = stages

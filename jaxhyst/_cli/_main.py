@@ -12,7 +12,6 @@ from typing import NoReturn
 import jax
 
 from .._cache import enable_compilation_cache
-from .._program_store import prefetching
 from .._recording import RecordingError
 from ._options import PROG, one_line
 
@@ -107,8 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(argv)
     try:
         args = parser.parse_args(argv)
-        with prefetching():
-            return args.run(args)
+        return args.run(args)
     except UsageError as error:
         print(
             f"{PROG}: error: {one_line(error)} (see '{error.prog} --help')",
@@ -133,8 +131,8 @@ def script() -> NoReturn:
     and stderr), as mypy does. Python's normal shutdown (collecting every module's
     objects, tearing down JAX's runtime and its compiled programs) took 0.35 s of a
     2.7 s warm `jaxhyst fit`, and there is nothing left for it to do: every file a
-    command writes is closed before `main` returns, and JAX and the program store
-    write their caches when they compile. An exception escaping `main` (a bug)
+    command writes is closed before `main` returns, and JAX writes its cache when it
+    compiles. An exception escaping `main` (a bug)
     takes Python's normal path, traceback included."""
     status = main()
     try:

@@ -33,7 +33,6 @@ from .._simulate import RK4
 from .._status import RESULTS, has_status
 from .._swarm import MPSO
 from .._threads import side_by_side
-from .._xla_options import repeated_runs
 from ._ambiguity import cannot_tell_rivals, confined, standing_in, unresolved
 from ._effects.base import AbstractEffect, RefitScales
 from ._families import AbstractFamily, PiezoFamily
@@ -879,14 +878,14 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
     where_now = family.locate(ctx.recording, ctx.y - state.predicted)
     effect = family.effect(name)
     finding = Finding(
-        name,
-        _evidence(effect, winner.validation, where_now, winner.model),
-        family.describe(where_now),
-        float(winner.score.statistic),
-        effect.values(winner.model),
-        error_metrics(ctx.y, state.predicted),
-        error_metrics(ctx.y, winner.predicted),
-        winner.validation,
+        effect=name,
+        evidence=_evidence(effect, winner.validation, where_now, winner.model),
+        where=family.describe(where_now),
+        score=float(winner.score.statistic),
+        parameters=effect.values(winner.model),
+        before=error_metrics(ctx.y, state.predicted),
+        after=error_metrics(ctx.y, winner.predicted),
+        validation=winner.validation,
     )
     findings = (finding,)
     for dependent_name in winner.dependents:
@@ -901,17 +900,17 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
         )
         findings += (
             Finding(
-                dependent_name,
-                f"{dependent.meaning}. {why[0].upper()}{why[1:]}, so the two were "
-                "refitted together: adding "
+                effect=dependent_name,
+                evidence=f"{dependent.meaning}. {why[0].upper()}{why[1:]}, so the two "
+                "were refitted together: adding "
                 f"both lowered the held-out RMSE from {v.heldout_rmse_before:.3g} to "
                 f"{v.heldout_rmse_after:.3g}. The backward check tests each alone.",
-                family.describe(where_now),
-                math.nan,
-                dependent.values(winner.model),
-                error_metrics(ctx.y, state.predicted),
-                error_metrics(ctx.y, winner.predicted),
-                v,
+                where=family.describe(where_now),
+                score=math.nan,
+                parameters=dependent.values(winner.model),
+                before=error_metrics(ctx.y, state.predicted),
+                after=error_metrics(ctx.y, winner.predicted),
+                validation=v,
             ),
         )
     added = [p for f in findings for p in family.effect(f.effect).parameters]
@@ -1360,14 +1359,16 @@ def _replace_finding(
     )
     ctx.progress.say(f"{finding.effect} replaced by {alternative.name}")
     replacement = Finding(
-        alternative.name,
-        _evidence(alternative, swap.trial.validation, swap.where_then, swapped),
-        ctx.family.describe(swap.where_then),
-        float(swap.trial.score.statistic),
-        alternative.values(swapped),
-        error_metrics(ctx.y, state.predicted),
-        error_metrics(ctx.y, swapped_pred),
-        dataclasses.replace(swap.trial.validation, replaced=finding.effect),
+        effect=alternative.name,
+        evidence=_evidence(
+            alternative, swap.trial.validation, swap.where_then, swapped
+        ),
+        where=ctx.family.describe(swap.where_then),
+        score=float(swap.trial.score.statistic),
+        parameters=alternative.values(swapped),
+        before=error_metrics(ctx.y, state.predicted),
+        after=error_metrics(ctx.y, swapped_pred),
+        validation=dataclasses.replace(swap.trial.validation, replaced=finding.effect),
     )
     findings = list(state.findings)
     findings[position] = replacement
@@ -1624,8 +1625,8 @@ def diagnose(
             )
     if not isinstance(family, AbstractFamily):
         raise TypeError(
-            "diagnose: family must be a family object such as jh.PiezoFamily() or "
-            f"jh.StructuralFamily(), got {type(family).__name__}."
+            "diagnose: family must be a family object such as jh.families.PiezoFamily() or "
+            f"jh.families.StructuralFamily(), got {type(family).__name__}."
         )
     if policy is None:
         policy = family.default_policy()
@@ -1646,9 +1647,7 @@ def diagnose(
         family.check(each)
     records = DiagnosisRecords.of(tuple(recordings), "diagnose")
     device = serial_device(device)
-    # Its refits run the same programs dozens of times: compiled for speed of
-    # running, not of compiling (`_xla_options.repeated_runs`).
-    with repeated_runs(), running_on(device):
+    with running_on(device):
         return _diagnose(
             records,
             moved_to(key, device),
@@ -1778,32 +1777,34 @@ def _diagnose(
             )
         )
     return Diagnosis(
-        recording.name,
-        recording.num_samples,
-        family.name,
-        family.base_name,
-        base,
-        final_model,
-        baseline,
-        error_metrics(ctx.y, final_pred),
-        list(findings),
-        unexplained,
-        list(state.rounds),
-        list(state.ambiguities),
-        advice,
-        list(state.steps),
-        noise["sigma"],
-        noise,
-        location,
-        base_predicted,
-        final_pred,
-        ~fit_mask,
-        family.holdout_description,
-        float(holdout_fraction),
-        final_parameters,
-        family.exports(final_model, recording),
-        time.perf_counter() - start_time,
-        what_is_left,
-        per_recording,
-        tuple(NotShown(name, reason) for name, reason in ctx.hidden.items()),
+        recording=recording.name,
+        samples=recording.num_samples,
+        family=family.name,
+        base_name=family.base_name,
+        base_model=base,
+        final_model=final_model,
+        baseline=baseline,
+        final=error_metrics(ctx.y, final_pred),
+        findings=list(findings),
+        unexplained=unexplained,
+        rounds=list(state.rounds),
+        ambiguities=list(state.ambiguities),
+        advice=advice,
+        steps=list(state.steps),
+        noise_sigma=noise["sigma"],
+        noise=noise,
+        location=location,
+        base_predicted=base_predicted,
+        final_predicted=final_pred,
+        heldout=~fit_mask,
+        holdout_description=family.holdout_description,
+        holdout_fraction=float(holdout_fraction),
+        final_parameters=final_parameters,
+        exports=family.exports(final_model, recording),
+        seconds=time.perf_counter() - start_time,
+        remainder=what_is_left,
+        per_recording=per_recording,
+        cannot_show=tuple(
+            NotShown(name, reason) for name, reason in ctx.hidden.items()
+        ),
     )

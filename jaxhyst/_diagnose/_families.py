@@ -229,7 +229,7 @@ class PiezoFamily(AbstractFamily):
                 f"diagnose: recording {recording.name!r} has a pseudo time (unit "
                 f"{recording.time_unit!r}: a quasi-static record), but the piezo "
                 "family's effects (rate dependence, creep, dynamics, drift) are "
-                "functions of real time; use family=jh.StructuralFamily() (--model "
+                "functions of real time; use family=jh.families.StructuralFamily() (--model "
                 "bouc-wen) for cyclic tests, or load the record with its time column."
             )
         recording.require_samples(200, what="the piezo diagnosis")

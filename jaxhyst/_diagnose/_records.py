@@ -16,12 +16,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._arrays import device_array
 from .._identification._identifiability import output_jacobian
 from .._identification._problem import RecordSimulation, stack_inputs
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
-from .._program_store import stored_jit
 from .._recording import Recording, RecordingError
 from .._simulate import AbstractSimulationSolver, simulate
 from ._score import jacobian, predict
@@ -40,7 +38,7 @@ class StackedSimulation(eqx.Module):
         )
 
 
-@stored_jit
+@eqx.filter_jit
 def _simulated(simulation, model):
     return simulation(model)
 
@@ -52,7 +50,7 @@ def _simulated(simulation, model):
 BATCH = 8
 
 
-@stored_jit
+@eqx.filter_jit
 def _simulated_batch(simulation, models):
     return eqx.filter_vmap(simulation)(models)
 
@@ -164,13 +162,7 @@ class DiagnosisRecords(eqx.Module):
                     continue
                 rows = [models[i] for i in chunk]
                 rows += [rows[-1]] * (BATCH - len(rows))
-                # Stacked on the host: `jnp.stack` would compile a program per shape.
-                stacked = jax.tree.map(
-                    lambda *leaves: device_array(
-                        np.stack([np.asarray(x) for x in leaves])
-                    ),
-                    *rows,
-                )
+                stacked = jax.tree.map(lambda *leaves: jnp.stack(leaves), *rows)
                 outputs = np.asarray(_simulated_batch(simulation, stacked))
                 for row, index in enumerate(chunk):
                     predicted[index] = self.flat(outputs[row])

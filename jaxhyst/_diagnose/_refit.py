@@ -24,7 +24,6 @@ from .._identification._problem import (
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
 from .._params import ParameterSpace
-from .._program_store import stored_jit
 from .._simulate import AbstractSimulationSolver
 from .._swarm import MPSO, run_swarm
 from ._effects.base import RefitScales
@@ -340,7 +339,7 @@ def _spline_penalty(space, z0, additive, columns: np.ndarray, splines):
     return np.concatenate(rows), np.concatenate(start)
 
 
-@stored_jit
+@eqx.filter_jit
 def _residual_directions(problem: Problem, z: Array, coordinates: Array) -> Array:
     """The residuals' derivative along each of `coordinates` at `z`, (m, k)."""
 

@@ -9,7 +9,6 @@ import numpy as np
 from .._identification._identifiability import output_jacobian
 from .._identification._problem import RecordSimulation
 from .._models.base import AbstractHysteresisModel
-from .._program_store import stored_jit
 from .._simulate import AbstractSimulationSolver, simulate
 
 
@@ -20,7 +19,7 @@ def jacobian(
     return output_jacobian(model, names, RecordSimulation(inputs, solver))[0]
 
 
-@stored_jit
+@eqx.filter_jit
 def _predict_jit(model, inputs, solver):
     return simulate(model, inputs, solver, throw=False)
 

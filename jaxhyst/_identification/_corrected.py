@@ -42,10 +42,7 @@ def identify_corrected(
         progress=progress,
         throw=False,
     )
-    base = first.model
-    if not isinstance(base, PiezoBoucWen):
-        raise TypeError(f"identify_corrected: stage 1 gave {type(base).__name__}.")
-    template = CorrectedPiezoBoucWen.from_piezo(base)
+    template = CorrectedPiezoBoucWen.from_piezo(first.model)
     box = template.default_bounds(joint_scales(records))
     space = ParameterSpace(template, {n: box.bounds[n] for n in ("phi", "eps")})
     second = identify(

@@ -13,9 +13,7 @@ from jaxtyping import Array, Float
 
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
-from .._program_store import stored_jit
 from .._simulate import RK4, AbstractSimulationSolver
-from .._xla_options import ELEMENTAL_EMITTERS
 from ._problem import RecordSimulation
 
 
@@ -28,9 +26,7 @@ LOADING = 0.1
 EXACT = 1e-10
 
 
-# In a fit (`one_shot`) the elemental emitters: 0.24 s to compile against 0.42 s
-# (session 35), for a program a fit runs once (`_xla_options`).
-@stored_jit(one_shot_options=ELEMENTAL_EMITTERS)
+@eqx.filter_jit
 def _jacobian(model, names, outputs):
     values = jnp.stack([jnp.asarray(getattr(model, n), float) for n in names])
 
@@ -65,16 +61,6 @@ def output_jacobian(
     return np.nan_to_num(np.asarray(jac)).reshape(-1, len(names)), np.asarray(
         y
     ).reshape(-1)
-
-
-def prepare_output_jacobian(
-    model: AbstractHysteresisModel,
-    names: Sequence[str],
-    outputs: Callable[[AbstractHysteresisModel], Array],
-) -> None:
-    """Compile what `output_jacobian(model, names, outputs)` runs without running it
-    (`stored_jit.prepare`); `model`'s values do not matter, only its structure."""
-    _jacobian.prepare(model, tuple(names), outputs)
 
 
 def covariance(

@@ -10,7 +10,6 @@ runs optimistix Levenberg-Marquardt (or BFGS, or optax Adam) on every sample fro
 swarm's best; identifiability is read off the Jacobian at the result.
 """
 
-import functools
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -21,24 +20,20 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, PRNGKeyArray
 
-from .._arrays import device_array
 from .._memory_maps import release_if_near_map_limit
 from .._metrics import error_metrics
 from .._models.base import AbstractHysteresisModel, DataScales
 from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
-from .._program_store import preparing, stored_jit
 from .._recording import Recording
 from .._simulate import RK4, AbstractSimulationSolver
 from .._stability import stability_json
 from .._status import RESULTS, raise_unless_successful, status_message, status_name
 from .._swarm import MPSO, SwarmResult, run_swarm
-from .._xla_options import one_shot
 from ._identifiability import (
     Identifiability,
     identifiability_of,
     output_jacobian,
-    prepare_output_jacobian,
 )
 from ._polish import AbstractPolish, LevenbergMarquardtPolish, PolishResult
 from ._problem import (
@@ -153,8 +148,8 @@ def search(
     d = problem.space.dimension
     return run_swarm(
         swarm_objective,
-        device_array(np.zeros(d)),
-        device_array(np.ones(d)),
+        jnp.asarray(np.zeros(d)),
+        jnp.asarray(np.ones(d)),
         swarm,
         key,
         args=problem,
@@ -397,7 +392,7 @@ def identify(
     if space is None:
         space = ParameterSpace.default(model, joint_scales(records), gauge=gauge)
     per_record = [
-        Problem(space, r.input_path(), device_array(r.y), solver, w, stable_only)
+        Problem(space, r.input_path(), jnp.asarray(r.y), solver, w, stable_only)
         for r, w in zip(records, _weights(weights, records))
     ]
     problem = per_record[0] if len(records) == 1 else stack_problems(per_record)
@@ -410,33 +405,23 @@ def identify(
     analysed = unweighted[0] if len(records) == 1 else stack_problems(unweighted)
     timing: dict[str, float] = {}
     stride = swarm_stride or min(swarm_samples_per_step(r.u) for r in records)
-    # On the default device, the polish's and the analysis's programs compile in a
-    # background thread while the swarm runs (elsewhere they run unstored).
-    prepare_later = functools.partial(
-        _prepare_after_search, problem, analysed, polish, analyse
+    seeds, swarm_result = starting_points(
+        space,
+        lambda: swarm_problem(problem, stride),
+        swarm,
+        key,
+        start,
+        timing,
+        stall_iterations=stall_iterations,
+        chunk_size=20,
+        progress=progress,
     )
-    # The block ends after the polish: the analysis waits for its program to be
-    # ready rather than compile it a second time. A fit runs its programs once:
-    # those with one-shot options compile with them (`_xla_options`), unless this
-    # fit is one of a diagnosis's.
-    with one_shot(), preparing(prepare_later if device is None else None):
-        seeds, swarm_result = starting_points(
-            space,
-            lambda: swarm_problem(problem, stride),
-            swarm,
-            key,
-            start,
-            timing,
-            stall_iterations=stall_iterations,
-            chunk_size=20,
-            progress=progress,
+    problem, seeds, analysed = moved_to((problem, seeds, analysed), device)
+    with running_on(device):
+        z, polish_result = refine(
+            [PolishStage("polish", problem, polish)], seeds, timing
         )
-        problem, seeds, analysed = moved_to((problem, seeds, analysed), device)
-        with running_on(device):
-            z, polish_result = refine(
-                [PolishStage("polish", problem, polish)], seeds, timing
-            )
-    with one_shot(), running_on(device):
+    with running_on(device):
         fitted = model_at(problem.space, z)
         report = None
         if analyse:
@@ -457,7 +442,7 @@ def identify(
             flat = np.asarray(_simulated(analysed, fitted))
         simulated = flat.reshape(len(records), -1)
         predicted = tuple(
-            device_array(simulated[i, : r.num_samples]) for i, r in enumerate(records)
+            jnp.asarray(simulated[i, : r.num_samples]) for i, r in enumerate(records)
         )
         metrics = error_metrics(
             np.concatenate([r.y for r in records]), np.concatenate(predicted)
@@ -470,42 +455,21 @@ def identify(
             )
     timing["total_s"] = time.perf_counter() - t_start
     fit = Fit(
-        fitted,
-        predicted[0] if len(records) == 1 else predicted,
-        metrics,
-        swarm_result,
-        polish_result,
-        report,
-        timing,
-        fit_status(swarm_result, polish_result, predicted),
-        per_recording,
+        model=fitted,
+        predicted=predicted[0] if len(records) == 1 else predicted,
+        metrics=metrics,
+        swarm=swarm_result,
+        polish=polish_result,
+        identifiability=report,
+        timing=timing,
+        result=fit_status(swarm_result, polish_result, predicted),
+        per_recording=per_recording,
     )
     if throw:
         raise_unless_successful(fit.result, "identify")
     return fit
 
 
-@stored_jit
+@eqx.filter_jit
 def _simulated(problem: Problem, model: AbstractHysteresisModel):
     return problem.simulated(model)
-
-
-def _prepare_after_search(
-    problem: Problem,
-    analysed: Problem,
-    polish: AbstractPolish | None,
-    analyse: bool,
-) -> None:
-    """Compile the polish's program and the final analysis's (the identifiability
-    Jacobian, or the plain simulation) while the swarm runs: their arguments' shapes
-    are known before it starts."""
-    # Any point of the box; not weakly typed, as the swarm's best is not (a weak
-    # type is part of a program's key).
-    z = device_array(np.full(problem.space.dimension, 0.5))
-    if polish is not None:
-        polish.prepare(problem, z)
-    fitted = model_at(problem.space, z)
-    if analyse:
-        prepare_output_jacobian(fitted, fitted.parameter_names, analysed.simulated)
-    else:
-        _simulated.prepare(analysed, fitted)

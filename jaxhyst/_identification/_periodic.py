@@ -37,7 +37,6 @@ from .._models.base import AbstractHysteresisModel, DataScales
 from .._models.oscillator import HystereticOscillator
 from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
-from .._program_store import stored_jit
 from .._recording import Recording
 from .._simulate import RK4, AbstractSimulationSolver, simulate
 from .._status import raise_unless_successful
@@ -223,7 +222,7 @@ class SteadyOutput(eqx.Module):
         return self.simulation.output(model, self.path, self.period)
 
 
-@stored_jit
+@eqx.filter_jit
 def _steady_output(simulation, model, path, period):
     return SteadyOutput(simulation, path, period)(model)
 
@@ -392,14 +391,14 @@ def fit_periodic(
             timing["identifiability_s"] = time.perf_counter() - t0
     timing["total_s"] = time.perf_counter() - t_start
     fit = Fit(
-        fitted,
-        predicted,
-        metrics,
-        swarm_result,
-        polish_result,
-        report,
-        timing,
-        fit_status(swarm_result, polish_result, [predicted]),
+        model=fitted,
+        predicted=predicted,
+        metrics=metrics,
+        swarm=swarm_result,
+        polish=polish_result,
+        identifiability=report,
+        timing=timing,
+        result=fit_status(swarm_result, polish_result, [predicted]),
     )
     if throw:
         raise_unless_successful(fit.result, "fit_periodic")

@@ -14,10 +14,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from .._arrays import device_array
-from .._program_store import stored_jit
 from .._status import RESULTS, has_status
-from .._xla_options import ELEMENTAL_EMITTERS
 from ._problem import Problem, problem_residuals, problem_rmse
 
 
@@ -54,11 +51,6 @@ class AbstractPolish(eqx.Module):
     @abc.abstractmethod
     def run(self, problem: Problem, z0: Float[Array, " d"]) -> PolishResult:
         """Refine from `z0`; never returns a worse point than `z0`."""
-
-    def prepare(self, problem: Problem, z0: Float[Array, " d"]) -> None:
-        """Compile what `run(problem, z0)` runs without running it
-        (`stored_jit.prepare`); `z0` gives only the shape and dtype. The default does
-        nothing; `identify` calls it in a background thread during the swarm."""
 
 
 def stop_gain(min_gain: float | None, problem: Problem) -> float:
@@ -121,8 +113,7 @@ def _objective(least_squares: bool):
     return residuals if least_squares else mean_square
 
 
-# XLA:CPU's elemental emitters: half the compile time, and ran no slower here.
-@stored_jit(compiler_options=ELEMENTAL_EMITTERS)
+@eqx.filter_jit
 def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_gain):
     fn = _objective(least_squares)
     options, tags = {}, frozenset()
@@ -250,11 +241,8 @@ class AbstractOptimistixPolish(AbstractPolish):
             jnp.asarray(z0),
             self.max_steps,
             max(1, min(self.window, self.max_steps)),
-            device_array(stop_gain(self.min_gain, problem)),
+            jnp.asarray(stop_gain(self.min_gain, problem), dtype=float),
         )
-
-    def prepare(self, problem: Problem, z0: Float[Array, " d"]) -> None:
-        _optimistix_loop.prepare(*self._loop_arguments(problem, z0))
 
     def run(self, problem: Problem, z0: Float[Array, " d"]) -> PolishResult:
         start = time.perf_counter()
@@ -292,7 +280,7 @@ class BFGSPolish(AbstractOptimistixPolish):
         return optx.BFGS(self.rtol, self.atol)
 
 
-@stored_jit
+@eqx.filter_jit
 def _adam_steps(problem, z, opt_state, learning_rate, steps):
     import optax  # here: only this baseline uses it (importing it takes 0.05 s)
 

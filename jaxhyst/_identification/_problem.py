@@ -9,14 +9,11 @@ import numpy as np
 from jax.core import Tracer
 from jaxtyping import Array, ArrayLike, Float
 
-from .._arrays import device_array
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
 from .._params import ParameterSpace
-from .._program_store import stored_jit
 from .._simulate import RK4, AbstractSimulationSolver, simulate, sum_squared_error
 from .._stability import is_bibo_stable
-from .._xla_options import ELEMENTAL_EMITTERS
 
 
 def _over_records(function, inputs: InputPath, *arrays):
@@ -48,7 +45,7 @@ class Problem(eqx.Module):
         it is computed on the host (no small program compiled per process)."""
         if isinstance(self.measured, Tracer):
             return jnp.max(jnp.abs(self.measured))
-        return device_array(np.max(np.abs(np.asarray(self.measured))))
+        return jnp.asarray(np.max(np.abs(np.asarray(self.measured))))
 
     @property
     def fitted_samples(self) -> int:
@@ -160,20 +157,20 @@ def swarm_objective(z: Float[Array, " d"], problem: Problem) -> Float[Array, ""]
     return problem.rmse(z)
 
 
-@stored_jit
+@eqx.filter_jit
 def problem_rmse(problem: Problem, z: Float[Array, " d"]) -> Float[Array, ""]:
     """`problem.rmse(z)` as one compiled program. Called inside other programs it
     is traced once per process (JAX caches the trace), not once per call."""
     return problem.rmse(z)
 
 
-@stored_jit
+@eqx.filter_jit
 def problem_residuals(problem: Problem, z: Float[Array, " d"]) -> Float[Array, " m"]:
     """`problem.residuals(z)`, traced once per process like `problem_rmse`."""
     return problem.residuals(z)
 
 
-@stored_jit(compiler_options=ELEMENTAL_EMITTERS)  # one-shot: quick to compile
+@eqx.filter_jit
 def model_at(space: ParameterSpace, z: Float[Array, " d"]) -> AbstractHysteresisModel:
     """`space.to_model(z)` as one program (eagerly it is a dozen tiny ones)."""
     return space.to_model(z)

@@ -7,21 +7,25 @@ so the same model runs unchanged under the scan-RK4 simulator and under diffrax.
 
 import abc
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Collection, Iterator
-from typing import TYPE_CHECKING, ClassVar, Self
+from typing import TYPE_CHECKING, ClassVar, Generic, NamedTuple, Self, TypeVar, cast
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.core import Tracer
 from jaxtyping import Array, ArrayLike, Float, Int
 
-from .._arrays import device_array
 from .._inputs import InputPath
 from .._recording import Recording
 from .._smoothing import AbstractSmoothing, ExactSign
+
+
+if TYPE_CHECKING:
+    from .._simulate import RK4
+    from .structural import StructuralBoucWen
 
 
 def as_parameter(value: ArrayLike) -> Array:
@@ -31,11 +35,10 @@ def as_parameter(value: ArrayLike) -> Array:
     Model parameters are declared `eqx.field(converter=as_parameter)`: stored as
     arrays, so changing their values never recompiles, while the constructor (and a
     type checker) accepts floats."""
-    # Host values stay on the host until `device_array` (which compiles nothing).
-    array = value if isinstance(value, (jax.Array, Tracer)) else np.asarray(value)
+    array = value if isinstance(value, jax.Array) else np.asarray(value)
     if not jnp.issubdtype(array.dtype, jnp.inexact):
         array = array.astype(jnp.result_type(float))
-    return device_array(array, array.dtype)
+    return jnp.asarray(array)
 
 
 def smoothing_field():
@@ -44,11 +47,23 @@ def smoothing_field():
     return eqx.field(default_factory=ExactSign, kw_only=True)
 
 
-class Drive(eqx.Module):
-    """What a model reads from the input at one time: the input and its rate."""
+class AbstractDrive(eqx.Module):
+    """What a model reads from its inputs at one time: at least the input `u` and its
+    rate `udot`. Each model's `drive` returns one kind, which its `vector_field`,
+    `output` and `initial_state` read (`AbstractHysteresisModel[ThatDrive]`)."""
+
+    u: eqx.AbstractVar[Float[Array, ""]]
+    udot: eqx.AbstractVar[Float[Array, ""]]
+
+
+class Drive(AbstractDrive):
+    """What a model of one input reads at one time: the input and its rate."""
 
     u: Float[Array, ""]
     udot: Float[Array, ""]
+
+
+DriveT = TypeVar("DriveT", bound=AbstractDrive)
 
 
 SampleUpdate = Callable[[Array, Array, Array], Array]
@@ -158,21 +173,76 @@ class BoucWenShape(eqx.Module):
         return iter((self.A, self.beta, self.gamma, self.n, self.D))
 
 
-class AbstractHysteresisModel(eqx.Module):
-    """Base class of all models.
+class StageDynamics(NamedTuple):
+    """A second-order stage a model's output is seen through,
+    ydd/omega^2 + (2 zeta/omega) yd + y = y_static, and the drift added after it."""
 
-    Subclasses declare `parameter_names` (the fields that are model parameters, in a
-    fixed order) and `state_size`, and implement `vector_field` and `output`.
+    omega: float
+    """The stage's natural angular frequency (rad/s)."""
+    zeta: float
+    """Its damping ratio."""
+    drift: Callable[[np.ndarray], np.ndarray]
+    """The output's drift at the given times, added after the stage."""
+
+
+@functools.cache
+def _positional_fields(cls: type) -> tuple[str, ...]:
+    return tuple(f.name for f in dataclasses.fields(cls) if not f.kw_only)
+
+
+@functools.cache
+def _setting_fields(cls: type) -> tuple[str, ...]:
+    skipped = {*cls.parameter_names, *cls.unlisted_fields}
+    return tuple(f.name for f in dataclasses.fields(cls) if f.name not in skipped)
+
+
+class _ParameterNames:
+    """`parameter_names` of a model class that does not list them: its positional
+    fields (the ones `Model(*values)` takes), in their declared order."""
+
+    def __get__(self, instance, owner: type) -> tuple[str, ...]:
+        return _positional_fields(owner)
+
+
+class _SettingNames:
+    """`setting_names` of a model class: its fields but the parameters and the
+    `unlisted_fields`, in their declared order."""
+
+    def __get__(self, instance, owner: type) -> tuple[str, ...]:
+        return _setting_fields(owner)
+
+
+class AbstractHysteresisModel(eqx.Module, Generic[DriveT]):
+    """Base class of all models, generic in the kind of drive (`AbstractDrive`) the
+    model reads: `drive` returns one, and `vector_field`, `output` and
+    `initial_state` read it.
+
+    A model's parameters (`parameter_names`) are its positional fields, in their
+    declared order; keyword-only fields are its settings (`setting_names`: the
+    normalisers set from a record, static options), the smoothing among them. A
+    subclass may list `parameter_names` itself instead. Subclasses declare
+    `state_size`, implement `vector_field` and `output`, and answer for themselves
+    what other code asks of a model: the solver it is simulated with
+    (`default_solver`), what makes its output lag the drive (`lag_reason`,
+    `time_shift`, `stage_dynamics`, `quasi_static`: compensation), and its exports
+    (`c_export_parameters`, `opensees_model`). The defaults say "none" or refuse.
     """
 
     if TYPE_CHECKING:
         # To a type checker an AbstractVar is a dataclass field, which would put
         # `smoothing` first among every subclass's positional parameters.
         smoothing: ClassVar[AbstractSmoothing]
+        # Derived from the fields at run time (`_ParameterNames`, `_SettingNames`).
+        parameter_names: ClassVar[tuple[str, ...]]
+        setting_names: ClassVar[tuple[str, ...]]
     else:
         smoothing: eqx.AbstractVar[AbstractSmoothing]
-    parameter_names: ClassVar[tuple[str, ...]]
+        parameter_names = _ParameterNames()
+        setting_names = _SettingNames()
     state_size: ClassVar[int]
+    # Fields that are neither parameters nor settings: the smoothing (a model file
+    # stores it on its own) and, in subclasses, ways of computing.
+    unlisted_fields: ClassVar[tuple[str, ...]] = ("smoothing",)
     # Physical lower limits of parameters (by name) that fits keep even when a
     # polish steps outside its box (`ParameterSpace.floor`), beyond the shared ones
     # (n >= 1, nu >= 1).
@@ -183,6 +253,8 @@ class AbstractHysteresisModel(eqx.Module):
     # The inputs the model reads, in the order an `InputPath` carries them (`values`,
     # then each row of `channels`). Models of more than one input override it.
     input_names: ClassVar[tuple[str, ...]] = ("u",)
+    # Whether OpenSees has a uniaxial material for the model (`opensees_model`).
+    has_opensees_material: ClassVar[bool] = False
 
     def drive(
         self,
@@ -190,26 +262,27 @@ class AbstractHysteresisModel(eqx.Module):
         t: Float[ArrayLike, ""],
         interval: Int[ArrayLike, ""] | None = None,
         frac: Float[ArrayLike, ""] | None = None,
-    ) -> Drive:
+    ) -> DriveT:
         """Read the input at time `t`. Simulators that know which sample interval a
         stage lies in pass `interval` and `frac` (position inside it), which resolves
-        the one-sided rate at sample instants exactly."""
+        the one-sided rate at sample instants exactly. The default reads the one
+        input (a `Drive`); a model whose drive is another kind overrides it."""
         u, udot = read_input(path, t, interval, frac)
-        return Drive(u, udot)
+        return cast(DriveT, Drive(u, udot))
 
     @abc.abstractmethod
     def vector_field(
-        self, t: Float[ArrayLike, ""], state: Float[Array, " s"], drive: Drive
+        self, t: Float[ArrayLike, ""], state: Float[Array, " s"], drive: DriveT
     ) -> Float[Array, " s"]:
         """d(state)/dt."""
 
     @abc.abstractmethod
     def output(
-        self, t: Float[ArrayLike, ""], state: Float[Array, " s"], drive: Drive
+        self, t: Float[ArrayLike, ""], state: Float[Array, " s"], drive: DriveT
     ) -> Float[Array, ""]:
         """The measured quantity (displacement) for this state and input."""
 
-    def initial_state(self, drive: Drive) -> Float[Array, " s"]:
+    def initial_state(self, drive: DriveT) -> Float[Array, " s"]:
         """The state at the first sample: a demagnetised (h = 0), resting system."""
         return jnp.zeros(self.state_size, jnp.result_type(drive.u))
 
@@ -256,6 +329,60 @@ class AbstractHysteresisModel(eqx.Module):
             "n); pass a BoucWen-family model, or define bouc_wen_shape() on it."
         )
 
+    def default_solver(self, recording: Recording) -> "RK4":
+        """The solver `jaxhyst fit`, `evaluate` and `compensate` simulate this model
+        with on `recording` (`jh.default_solver`), so that a saved model is
+        evaluated as it was fitted: one RK4 step per sample (the default) unless the
+        model is stiff on the sample scale."""
+        from .._simulate import RK4
+
+        return RK4()
+
+    # What makes the output lag the drive (`jh.compensate`). They need concrete
+    # parameter values (call them outside `jit`).
+
+    def lag_reason(self) -> str | None:
+        """Why the output lags the drive, so that the model has no per-sample inverse
+        (a clause for a message: "... the drive cannot be found sample by sample"),
+        or None (the default: the output responds to the present drive)."""
+        return None
+
+    def time_shift(self) -> float:
+        """How far in time (s) the hysteresis reads the drive (its phi); 0.0 (the
+        default) for a model that reads the present drive."""
+        return 0.0
+
+    def stage_dynamics(self) -> StageDynamics | None:
+        """The second-order stage the output is seen through after the quasi-static
+        response, or None (the default: no stage)."""
+        return None
+
+    def quasi_static(self) -> "AbstractHysteresisModel":
+        """The model without what makes its output lag the drive (stage dynamics, a
+        time shift): what the per-sample inversion can invert. The model itself (the
+        default) where nothing lags."""
+        return self
+
+    # Exports.
+
+    def c_export_parameters(self) -> dict[str, float]:
+        """The constants `export_c` writes (k1, k2, A1, beta1, gamma1, n, eps of
+        y = k1*u + k2*h, hdot = (A1 - (beta1*sgn(udot)*sgn(h) + gamma1)*|h|^n)*udot
+        + eps*u*sgn(udot)). The default refuses: the model has no C export."""
+        raise ValueError(
+            f"export_c: {type(self).__name__} has no C export; PiezoBoucWen and "
+            "CorrectedPiezoBoucWen (phi = 0) do."
+        )
+
+    def opensees_model(self) -> "StructuralBoucWen":
+        """The model as OpenSees's Bouc-Wen materials read it (`opensees_material`):
+        a `StructuralBoucWen` with the same restoring force. The default refuses:
+        OpenSees has no material for the model (`has_opensees_material`)."""
+        raise TypeError(
+            "opensees_material: model must be a StructuralBoucWen or BoucWen (the "
+            f"models OpenSees has a material for), got {type(self).__name__}."
+        )
+
     def parameters(self) -> dict[str, Array]:
         """The parameter values by name, in `parameter_names` order."""
         return {name: getattr(self, name) for name in self.parameter_names}
@@ -299,7 +426,7 @@ def held_gains_field():
     return eqx.field(static=True, default=frozenset(), kw_only=True)
 
 
-class AbstractGainHoldingModel(AbstractHysteresisModel):
+class AbstractGainHoldingModel(AbstractHysteresisModel[DriveT]):
     """A model with effect terms it can leave out of its equations at trace time:
     the gains in `zero_gains` (static; empty by default) are held at zero, and the
     equations skip what they scale (`_holds`). Refits hold the gains of the effects
@@ -309,6 +436,9 @@ class AbstractGainHoldingModel(AbstractHysteresisModel):
         zero_gains: ClassVar[frozenset[str]]
     else:
         zero_gains: eqx.AbstractVar[frozenset[str]]
+    # The held gains are a way of computing, not part of the model (a model file
+    # does not list them; a loaded model holds nothing).
+    unlisted_fields: ClassVar[tuple[str, ...]] = ("smoothing", "zero_gains")
 
     def held_at_zero(self, names: Collection[str]) -> Self:
         """This model with the gains `names` held at zero (see

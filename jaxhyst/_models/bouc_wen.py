@@ -1,25 +1,35 @@
 """The standard Bouc-Wen model (eq. 1-2) and the piezo models derived from it
 (eq. 7-8, the corrected eq. 16-17, and the stage dynamics of eq. 3-4)."""
 
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._inputs import InputPath
+from .._recording import Recording
+from .._simulate import RK4
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
+    AbstractDrive,
     AbstractHysteresisModel,
     BoucWenShape,
     DataScales,
     Drive,
     SearchBox,
+    StageDynamics,
     as_parameter,
     hysteretic_rate,
     read_input,
     smoothing_field,
 )
+
+
+if TYPE_CHECKING:
+    from .extended import ExtendedPiezo
+    from .structural import StructuralBoucWen
 
 
 def _piezo_box(
@@ -45,6 +55,26 @@ def _piezo_box(
     return SearchBox(model, bounds)
 
 
+def structural_solver(recording: Recording) -> RK4:
+    """The solver of the structural models (`BoucWen`, `StructuralBoucWen`): the
+    structural diagnosis family's (`StructuralFamily.solver`), which `diagnose`
+    fits them with."""
+    from .._diagnose._families import StructuralFamily  # the family imports models
+
+    return StructuralFamily().solver(recording)
+
+
+def shift_reason(model: "CorrectedPiezoBoucWen | ExtendedPiezo") -> str | None:
+    """Why a model with a time shift phi lags the drive (None at phi = 0)."""
+    phi = float(model.phi)
+    if not phi:
+        return None
+    return (
+        f"{type(model).__name__} with phi = {phi:g} s reads the drive "
+        "shifted in time (V(t) = u(t + phi)), not at the present sample"
+    )
+
+
 def _piezo_shape(
     model: "PiezoBoucWen | CorrectedPiezoBoucWen | PiezoStage",
 ) -> BoucWenShape:
@@ -58,7 +88,7 @@ def _piezo_shape(
     )
 
 
-class BoucWen(AbstractHysteresisModel):
+class BoucWen(AbstractHysteresisModel[Drive]):
     """Standard Bouc-Wen (eq. 1-2):
 
     Phi  = alpha*k*u + (1 - alpha)*D*k*h
@@ -74,16 +104,8 @@ class BoucWen(AbstractHysteresisModel):
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = smoothing_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "k",
-        "alpha",
-        "D",
-        "A",
-        "beta",
-        "gamma",
-        "n",
-    )
     state_size: ClassVar[int] = 1
+    has_opensees_material: ClassVar[bool] = True
 
     def vector_field(self, t, state, drive):
         hdot = hysteretic_rate(
@@ -128,6 +150,16 @@ class BoucWen(AbstractHysteresisModel):
             names=("A", "beta", "gamma", "n", "D"),
         )
 
+    def default_solver(self, recording: Recording) -> RK4:
+        """The structural family's substeps (`structural_solver`)."""
+        return structural_solver(recording)
+
+    def opensees_model(self) -> "StructuralBoucWen":
+        """`StructuralBoucWen.from_bouc_wen(self)` (needs D > 0 and A > 0)."""
+        from .structural import StructuralBoucWen  # it builds on this module
+
+        return StructuralBoucWen.from_bouc_wen(self)
+
     def gauge_fixed(self) -> "BoucWen":
         """The same force for every displacement history written with D = 1 and
         A = 1: w = (D/A)*h obeys wdot = udot - beta'*|udot|*|w|^(n-1)*w -
@@ -154,7 +186,7 @@ class BoucWen(AbstractHysteresisModel):
         )
 
 
-class PiezoBoucWen(AbstractHysteresisModel):
+class PiezoBoucWen(AbstractHysteresisModel[Drive]):
     """The paper's six-parameter quasi-static piezo model (eq. 7-8):
 
         y    = k1*u + k2*h
@@ -172,14 +204,6 @@ class PiezoBoucWen(AbstractHysteresisModel):
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = smoothing_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "k1",
-        "k2",
-        "A1",
-        "beta1",
-        "gamma1",
-        "n",
-    )
     state_size: ClassVar[int] = 1
 
     @classmethod
@@ -227,16 +251,31 @@ class PiezoBoucWen(AbstractHysteresisModel):
     def bouc_wen_shape(self) -> BoucWenShape:
         return _piezo_shape(self)
 
+    def c_export_parameters(self) -> dict[str, float]:
+        """The six parameters and eps = 0."""
+        return _c_parameters(self, 0.0)
 
-class ShiftedDrive(Drive):
+
+def _c_parameters(
+    model: "PiezoBoucWen | CorrectedPiezoBoucWen", eps: float
+) -> dict[str, float]:
+    """`export_c`'s constants: the piezo law's six parameters, then eps."""
+    values = {n: float(getattr(model, n)) for n in PiezoBoucWen.parameter_names}
+    values["eps"] = eps
+    return values
+
+
+class ShiftedDrive(AbstractDrive):
     """The input and its rate, plus the time-shifted input V(t) = u(t + phi) and its
     rate, which the corrected model's hysteresis operator sees."""
 
+    u: Float[Array, ""]
+    udot: Float[Array, ""]
     v: Float[Array, ""]
     vdot: Float[Array, ""]
 
 
-class CorrectedPiezoBoucWen(AbstractHysteresisModel):
+class CorrectedPiezoBoucWen(AbstractHysteresisModel[ShiftedDrive]):
     """The paper's corrected (asymmetric) piezo model (eq. 16-17):
 
         y         = k1*u(t) + k2*h
@@ -258,27 +297,23 @@ class CorrectedPiezoBoucWen(AbstractHysteresisModel):
     eps: Float[Array, ""] = eqx.field(converter=as_parameter, default=0.0)
     smoothing: AbstractSmoothing = smoothing_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "k1",
-        "k2",
-        "A1",
-        "beta1",
-        "gamma1",
-        "n",
-        "phi",
-        "eps",
-    )
     state_size: ClassVar[int] = 1
 
     @classmethod
     def from_piezo(
         cls,
-        base: PiezoBoucWen,
+        base: AbstractHysteresisModel,
         *,
         phi: Float[ArrayLike, ""] = 0.0,
         eps: Float[ArrayLike, ""] = 0.0,
     ) -> "CorrectedPiezoBoucWen":
-        """The corrected model around a fitted plain model (the paper's two stages)."""
+        """The corrected model around a fitted plain model (the paper's two stages):
+        `base` must be a `PiezoBoucWen`."""
+        if not isinstance(base, PiezoBoucWen):
+            raise TypeError(
+                "CorrectedPiezoBoucWen.from_piezo: base must be a PiezoBoucWen, got "
+                f"{type(base).__name__}."
+            )
         return cls(**base.parameters(), phi=phi, eps=eps, smoothing=base.smoothing)
 
     def drive(self, path: InputPath, t, interval=None, frac=None) -> ShiftedDrive:
@@ -289,8 +324,7 @@ class CorrectedPiezoBoucWen(AbstractHysteresisModel):
             v, vdot = path.on_interval_shifted(interval, frac, self.phi)
         return ShiftedDrive(u, udot, v, vdot)
 
-    # The drive is the one this model's `drive` returns.
-    def vector_field(self, t, state, drive: ShiftedDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
+    def vector_field(self, t, state, drive: ShiftedDrive):
         s = self.smoothing
         hdot = hysteretic_rate(
             s, state[0], drive.vdot, self.A1, self.beta1, self.gamma1, self.n
@@ -313,8 +347,30 @@ class CorrectedPiezoBoucWen(AbstractHysteresisModel):
     def bouc_wen_shape(self) -> BoucWenShape:
         return _piezo_shape(self)
 
+    def lag_reason(self) -> str | None:
+        """The time shift's, where phi != 0."""
+        return shift_reason(self)
 
-class PiezoStage(AbstractHysteresisModel):
+    def time_shift(self) -> float:
+        return float(self.phi)
+
+    def quasi_static(self) -> "CorrectedPiezoBoucWen":
+        """The model with phi = 0."""
+        return self.replace(phi=0.0)
+
+    def c_export_parameters(self) -> dict[str, float]:
+        """The six parameters and eps; refused unless phi = 0 (the per-sample C step
+        reads only the present drive)."""
+        if float(self.phi) != 0.0:
+            raise ValueError(
+                f"export_c: phi = {float(self.phi):g} s shifts the drive in time; "
+                "the per-sample C step reads only the present drive. Export the "
+                "model with phi = 0."
+            )
+        return _c_parameters(self, float(self.eps))
+
+
+class PiezoStage(AbstractHysteresisModel[Drive]):
     """The stage dynamics of eq. 3-4: a mass-spring-damper driven by the hysteretic
     force, written per unit stiffness so that it nests the quasi-static model:
 
@@ -336,16 +392,6 @@ class PiezoStage(AbstractHysteresisModel):
     damping_ratio: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = smoothing_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "k1",
-        "k2",
-        "A1",
-        "beta1",
-        "gamma1",
-        "n",
-        "natural_frequency",
-        "damping_ratio",
-    )
     state_size: ClassVar[int] = 3
 
     @classmethod
@@ -423,3 +469,26 @@ class PiezoStage(AbstractHysteresisModel):
 
     def bouc_wen_shape(self) -> BoucWenShape:
         return _piezo_shape(self)
+
+    def default_solver(self, recording: Recording) -> RK4:
+        """RK4 with 4 substeps: the stage is stiff on the sample scale."""
+        return RK4(substeps=4)
+
+    def lag_reason(self) -> str | None:
+        return (
+            "PiezoStage's output is the position of a mass-spring-damper, which does "
+            "not respond to the present drive within one sample"
+        )
+
+    def stage_dynamics(self) -> StageDynamics:
+        """The stage at natural_frequency and damping_ratio; no drift."""
+        return StageDynamics(
+            2 * np.pi * float(self.natural_frequency),
+            float(self.damping_ratio),
+            lambda t: np.zeros_like(t),
+        )
+
+    def quasi_static(self) -> PiezoBoucWen:
+        """The `PiezoBoucWen` of the same hysteresis (the stage left out)."""
+        values = {n: getattr(self, n) for n in PiezoBoucWen.parameter_names}
+        return PiezoBoucWen(**values, smoothing=self.smoothing)

@@ -16,8 +16,11 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._inputs import InputPath
+from .._recording import Recording
+from .._simulate import RK4
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
+    AbstractDrive,
     AbstractHysteresisModel,
     BoucWenShape,
     DataScales,
@@ -30,12 +33,12 @@ from .base import (
 )
 
 
-class DamperDrive(Drive):
+class AbstractDamperDrive(AbstractDrive):
     """What an MR damper model reads at one time: the displacement x (`u`), its
     velocity xdot (`udot`), the command voltage v and its rate."""
 
-    v: Float[Array, ""]
-    vdot: Float[Array, ""]
+    v: eqx.AbstractVar[Float[Array, ""]]
+    vdot: eqx.AbstractVar[Float[Array, ""]]
 
     @property
     def x(self) -> Float[Array, ""]:
@@ -44,6 +47,16 @@ class DamperDrive(Drive):
     @property
     def xdot(self) -> Float[Array, ""]:
         return self.udot
+
+
+class DamperDrive(AbstractDamperDrive):
+    """What an MR damper model reads at one time: the displacement x (`u`), its
+    velocity xdot (`udot`), the command voltage v and its rate."""
+
+    u: Float[Array, ""]
+    udot: Float[Array, ""]
+    v: Float[Array, ""]
+    vdot: Float[Array, ""]
 
 
 def read_command(
@@ -111,7 +124,13 @@ def _substeps(rate: float, dt: float, per_step: float) -> int:
     return max(1, math.ceil(rate * dt / per_step))
 
 
-class BoucWenDamper(AbstractHysteresisModel):
+def _recommended_solver(
+    model: "BoucWenDamper | SpencerDamper", recording: Recording
+) -> RK4:
+    return RK4(substeps=model.recommended_substeps(recording.input_path()))
+
+
+class BoucWenDamper(AbstractHysteresisModel[Drive]):
     """A damper of fixed field: a dashpot, a spring and Bouc-Wen hysteresis in
     parallel (the "Bouc-Wen model" Spencer et al. 1997 start from, plus an offset):
 
@@ -138,17 +157,6 @@ class BoucWenDamper(AbstractHysteresisModel):
     n: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = smoothing_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "c0",
-        "k0",
-        "x0",
-        "alpha",
-        "f0",
-        "A",
-        "beta",
-        "gamma",
-        "n",
-    )
     state_size: ClassVar[int] = 1
     input_names: ClassVar[tuple[str, ...]] = ("displacement",)
 
@@ -188,6 +196,11 @@ class BoucWenDamper(AbstractHysteresisModel):
         high velocity needs several."""
         return _substeps(self.stiffness(_peak_rate(inputs)), float(inputs.dt), per_step)
 
+    def default_solver(self, recording: Recording) -> RK4:
+        """RK4 with `recommended_substeps` for the record: a sharp loop at high
+        velocity is stiff at kHz sample rates."""
+        return _recommended_solver(self, recording)
+
     def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> SearchBox:
         """Bounds scaled to max|x| and max|F|. x0 is fixed at 0 (f0 carries the
         offset). With `gauge=True` (default) A is fixed at 1, which gives z the units
@@ -222,7 +235,7 @@ class BoucWenDamper(AbstractHysteresisModel):
         )
 
 
-class SpencerDamper(AbstractHysteresisModel):
+class SpencerDamper(AbstractHysteresisModel[DamperDrive]):
     """Spencer, Dyke, Sain and Carlson's "modified Bouc-Wen" MR damper model
     (J. Eng. Mech. 123(3):230-238, 1997): the Bouc-Wen element and a
     dashpot c0 with spring k0 act on an internal displacement y, tied to the piston
@@ -269,22 +282,6 @@ class SpencerDamper(AbstractHysteresisModel):
     eta: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = smoothing_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "c0a",
-        "c0b",
-        "k0",
-        "c1a",
-        "c1b",
-        "k1",
-        "x0",
-        "alpha_a",
-        "alpha_b",
-        "A",
-        "beta",
-        "gamma",
-        "n",
-        "eta",
-    )
     state_size: ClassVar[int] = 3
     input_names: ClassVar[tuple[str, ...]] = ("displacement", "command")
 
@@ -328,15 +325,14 @@ class SpencerDamper(AbstractHysteresisModel):
             self.c1a + self.c1b * w,
         )
 
-    def _internal_rate(self, state, drive: Drive):
+    def _internal_rate(self, state, drive: AbstractDrive):
         """(ydot, c1): the internal displacement's rate and the c1 it sees."""
         z, y, w = state[0], state[1], state[2]
         alpha, c0, c1 = self._coefficients(w)
         ydot = (alpha * z + c0 * drive.udot + self.k0 * (drive.u - y)) / (c0 + c1)
         return ydot, c1
 
-    # The drive is the one this model's `drive` returns.
-    def vector_field(self, t, state, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
+    def vector_field(self, t, state, drive: DamperDrive):
         ydot, _ = self._internal_rate(state, drive)
         zdot = hysteretic_rate(
             self.smoothing,
@@ -354,7 +350,7 @@ class SpencerDamper(AbstractHysteresisModel):
         ydot, c1 = self._internal_rate(state, drive)
         return c1 * ydot + self.k1 * (drive.u - self.x0)
 
-    def initial_state(self, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
+    def initial_state(self, drive: DamperDrive):
         x = jnp.asarray(drive.u)
         return jnp.stack([jnp.zeros_like(x), x, jnp.asarray(drive.v, x.dtype)])
 
@@ -399,6 +395,11 @@ class SpencerDamper(AbstractHysteresisModel):
             commands = (float(np.min(v)), float(np.max(v)))
         rate = self.stiffness(_peak_rate(inputs), commands)
         return _substeps(rate, float(inputs.dt), per_step)
+
+    def default_solver(self, recording: Recording) -> RK4:
+        """RK4 with `recommended_substeps` for the record: the internal dashpot and a
+        sharp loop are stiff at kHz sample rates."""
+        return _recommended_solver(self, recording)
 
     def default_bounds(self, scales: DataScales, *, gauge: bool = True) -> SearchBox:
         """Bounds scaled to max|x|, max|F| and the peak command (`more_input_peaks[0]`,

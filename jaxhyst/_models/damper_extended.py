@@ -53,6 +53,8 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._inputs import InputPath
+from .._recording import Recording
+from .._simulate import RK4
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
     AbstractGainHoldingModel,
@@ -65,8 +67,8 @@ from .base import (
     spline_drift,
 )
 from .damper import (
+    AbstractDamperDrive,
     BoucWenDamper,
-    DamperDrive,
     _hysteretic_rate_bound,
     _peak_rate,
     _substeps,
@@ -88,16 +90,21 @@ OFFSET_INTERVALS = 24
 OFFSET_TERMS = tuple(f"offset{k}" for k in range(1, OFFSET_INTERVALS + 3))
 
 
-class LaggedCommandDrive(DamperDrive):
-    """`DamperDrive` plus where in its sample interval it is read: the command at
-    the interval's start (`v_start`) and the time since it (`elapsed`), from which
-    the lagged field is solved exactly inside the interval."""
+class LaggedCommandDrive(AbstractDamperDrive):
+    """`DamperDrive`'s displacement, command and their rates, plus where in its
+    sample interval it is read: the command at the interval's start (`v_start`) and
+    the time since it (`elapsed`), from which the lagged field is solved exactly
+    inside the interval."""
 
+    u: Float[Array, ""]
+    udot: Float[Array, ""]
+    v: Float[Array, ""]
+    vdot: Float[Array, ""]
     v_start: Float[Array, ""]
     elapsed: Float[Array, ""]
 
 
-class ExtendedDamper(AbstractGainHoldingModel):
+class ExtendedDamper(AbstractGainHoldingModel[LaggedCommandDrive]):
     """`BoucWenDamper` plus the damper family's effects (all off at zero): field
     dependence, driver lag, roll-off, offset drift and asymmetry. Reads the
     displacement and the command (`input_names`). See the module docstring for the
@@ -157,18 +164,6 @@ class ExtendedDamper(AbstractGainHoldingModel):
     # rolloff held no internal dashpot.
     zero_gains: frozenset[str] = held_gains_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        *BoucWenDamper.parameter_names,
-        "field_alpha",
-        "field_damping",
-        "field_knee",
-        "command_lag",
-        "field_lag",
-        "rolloff",
-        "skew",
-        "damping_skew",
-        *OFFSET_TERMS,
-    )
     state_size: ClassVar[int] = 3
     input_names: ClassVar[tuple[str, ...]] = ("displacement", "command")
     retired_parameters: ClassVar[dict[str, str]] = dict.fromkeys(
@@ -325,8 +320,7 @@ class ExtendedDamper(AbstractGainHoldingModel):
             z
         )
 
-    # The drive is the one this model's `drive` returns.
-    def vector_field(self, t, state, drive: LaggedCommandDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
+    def vector_field(self, t, state, drive: LaggedCommandDrive):
         z, xdot = state[0], drive.udot
         alpha, c0, grows, r = self._coefficients(self._field_at(state, drive), xdot)
         # ydot = (alpha*z + c0*grows*xdot)/(c0*grows + c1), c1 = grows/r.
@@ -388,11 +382,18 @@ class ExtendedDamper(AbstractGainHoldingModel):
             + spline_drift(s, tuple(self._gain(name) for name in OFFSET_TERMS))
         )
 
-    def initial_state(self, drive: DamperDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
+    def initial_state(self, drive: LaggedCommandDrive):
         v = jnp.asarray(drive.v)
         return jnp.stack([jnp.zeros_like(v), v, v])
 
     # ---------------------------------------------------------------- stiffness
+
+    def default_solver(self, recording: Recording) -> RK4:
+        """The damper family's substeps (`DamperFamily.solver`), which `diagnose`
+        fits the model with."""
+        from .._diagnose._families import DamperFamily  # the family imports models
+
+        return DamperFamily().solver(recording)
 
     def stiffness(self, velocity: float, commands: tuple[float, ...] = (0.0,)) -> float:
         """An estimate (1/s) of the fastest rate of zdot at velocities up to

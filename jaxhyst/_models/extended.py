@@ -14,6 +14,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.scipy.linalg
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._inputs import InputPath
@@ -22,13 +23,14 @@ from .base import (
     AbstractGainHoldingModel,
     AbstractHysteresisModel,
     BoucWenShape,
+    StageDynamics,
     as_parameter,
     held_gains_field,
     hysteretic_rate,
     legendre_drift,
     read_input,
 )
-from .bouc_wen import PiezoBoucWen, ShiftedDrive
+from .bouc_wen import PiezoBoucWen, ShiftedDrive, shift_reason
 
 
 # Where the creep modes (fastest first, as in `creep_times`) live in the state.
@@ -36,7 +38,7 @@ _CREEP_STATES = (8, 1, 2, 3)
 _CREEP_GAINS = ("creep_faster", "creep_fast", "creep_slow", "creep_slower")
 
 
-class ExtendedPiezo(AbstractGainHoldingModel):
+class ExtendedPiezo(AbstractGainHoldingModel[ShiftedDrive]):
     """`PiezoBoucWen` plus the catalogue's effects (all off at zero):
 
     - asymmetry:       hdot += eps*u*sign(udot)  (the paper's Delta_Phi);
@@ -122,35 +124,6 @@ class ExtendedPiezo(AbstractGainHoldingModel):
     # with rate_amplitude held, each creep mode with its gain held, ...).
     zero_gains: frozenset[str] = held_gains_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "k1",
-        "k2",
-        "A1",
-        "beta1",
-        "gamma1",
-        "n",
-        "eps",
-        "quad",
-        "cubic",
-        "skew",
-        "phi",
-        "input_lead",
-        "input_time",
-        "rate_gain",
-        "viscous",
-        "rate_amplitude",
-        "viscous_time",
-        "creep_faster",
-        "creep_fast",
-        "creep_slow",
-        "creep_slower",
-        "offset",
-        "trend",
-        "curvature",
-        "wander",
-        "natural_frequency",
-        "damping_ratio",
-    )
     state_size: ClassVar[int] = 9
 
     @classmethod
@@ -199,6 +172,34 @@ class ExtendedPiezo(AbstractGainHoldingModel):
             names=("A1", "beta1", "gamma1", "n"),
         )
 
+    def lag_reason(self) -> str | None:
+        """The time shift's where phi != 0, else the stage's with `dynamic`."""
+        shifted = shift_reason(self)
+        if shifted is not None or not self.dynamic:
+            return shifted
+        return "this ExtendedPiezo has stage dynamics (inertia and damping)"
+
+    def time_shift(self) -> float:
+        return float(self.phi)
+
+    def stage_dynamics(self) -> StageDynamics | None:
+        """With `dynamic`: the stage at natural_frequency and damping_ratio, and the
+        drift (`drift`) added after it."""
+        if not self.dynamic:
+            return None
+        return StageDynamics(
+            2 * np.pi * float(self.natural_frequency),
+            float(self.damping_ratio),
+            lambda t: np.asarray(self.drift(jnp.asarray(t))),
+        )
+
+    def quasi_static(self) -> "ExtendedPiezo":
+        """The model with phi = 0 and without the stage (`dynamic=False`)."""
+        model = self.replace(phi=0.0)
+        if model.dynamic:
+            model = dataclasses.replace(model, dynamic=False)
+        return model
+
     def drive(self, path, t, interval=None, frac=None) -> ShiftedDrive:
         u, udot = read_input(path, t, interval, frac)
         if self._holds("phi"):
@@ -234,8 +235,7 @@ class ExtendedPiezo(AbstractGainHoldingModel):
         terms = (self._gain(name) for name in ("trend", "curvature", "wander"))
         return self._gain("offset") + legendre_drift(s, *terms)
 
-    # The drive is the one this model's `drive` returns.
-    def vector_field(self, t, state, drive: ShiftedDrive):  # pyright: ignore[reportIncompatibleMethodOverride]
+    def vector_field(self, t, state, drive: ShiftedDrive):
         s = self.smoothing
         h = state[0]
         zero = jnp.zeros_like(h)

@@ -12,13 +12,14 @@ from .base import (
     AbstractHysteresisModel,
     BoucWenShape,
     DataScales,
+    Drive,
     SearchBox,
     as_parameter,
     hysteretic_rate,
 )
 
 
-class HystereticOscillator(AbstractHysteresisModel):
+class HystereticOscillator(AbstractHysteresisModel[Drive]):
     """A force-driven single-degree-of-freedom oscillator with a Bouc-Wen restoring force:
 
         mass*ydd + damping*yd + stiffness*y + z = u
@@ -37,15 +38,6 @@ class HystereticOscillator(AbstractHysteresisModel):
     nu: Float[Array, ""] = eqx.field(converter=as_parameter)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "mass",
-        "damping",
-        "stiffness",
-        "alpha",
-        "beta_gamma",
-        "beta_delta",
-        "nu",
-    )
     state_size: ClassVar[int] = 3
 
     @classmethod

@@ -61,19 +61,35 @@ from typing import ClassVar
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._inputs import InputPath
+from .._recording import Recording
+from .._simulate import RK4
 from .._smoothing import AbstractSmoothing, ExactSign
 from .base import (
     AbstractGainHoldingModel,
     AbstractHysteresisModel,
     BoucWenShape,
+    Drive,
     as_parameter,
     held_gains_field,
     legendre_drift,
 )
-from .bouc_wen import BoucWen
+from .bouc_wen import BoucWen, structural_solver
+
+
+def _scalar(model: "StructuralBoucWen", name: str) -> float:
+    value = np.asarray(getattr(model, name))
+    if value.shape != ():
+        raise ValueError(
+            f"opensees_material: {name} has shape {value.shape}; export one model at "
+            "a time (index a batched model first)."
+        )
+    if value.dtype == np.float32:
+        return float(np.format_float_scientific(np.float32(value), unique=True))
+    return float(value)
 
 
 def _field(default: float):
@@ -84,7 +100,7 @@ def _normaliser(default: float):
     return eqx.field(converter=as_parameter, default=default, kw_only=True)
 
 
-class StructuralBoucWen(AbstractGainHoldingModel):
+class StructuralBoucWen(AbstractGainHoldingModel[Drive]):
     """Bouc-Wen restoring force with degradation, pinching, asymmetry and drift (all
     off at zero): F = alpha*k*x + (1 - alpha)*k*z (+ effects), z the hysteretic
     displacement. See the module docstring for each effect's equations."""
@@ -128,31 +144,8 @@ class StructuralBoucWen(AbstractGainHoldingModel):
     # degradation rates held, no energy either; with both peak rates held, no peak.
     zero_gains: frozenset[str] = held_gains_field()
 
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "k",
-        "alpha",
-        "A",
-        "beta",
-        "gamma",
-        "n",
-        "strength_degradation",
-        "stiffness_degradation",
-        "peak_strength_degradation",
-        "peak_stiffness_degradation",
-        "pinch",
-        "pinch_shift",
-        "pinch_width",
-        "pinch_rate",
-        "slip_length",
-        "slip_window",
-        "yield_skew",
-        "stiffness_skew",
-        "offset",
-        "trend",
-        "curvature",
-        "wander",
-    )
     state_size: ClassVar[int] = 4
+    has_opensees_material: ClassVar[bool] = True
     # Degradation only degrades: a member does not get stronger or stiffer as a test
     # goes on (a fitted strengthening would stand in for a stiffening the catalogue
     # has no name for, such as a static hardening under growing amplitudes).
@@ -217,6 +210,25 @@ class StructuralBoucWen(AbstractGainHoldingModel):
         return BoucWenShape(
             self.A, self.beta, self.gamma, self.n, names=("A", "beta", "gamma", "n")
         )
+
+    def default_solver(self, recording: Recording) -> RK4:
+        """The structural family's substeps (`structural_solver`)."""
+        return structural_solver(recording)
+
+    def opensees_model(self) -> "StructuralBoucWen":
+        """The model itself (OpenSees's materials read its equations)."""
+        return self
+
+    def opensees_parameters(self) -> dict[str, float]:
+        """The values OpenSees's Bouc-Wen materials are built from
+        (`opensees_material`), by name: every parameter (`parameter_names`), then
+        `energy_scale` and `pinch_lambda`, as Python floats (a float32 value as the
+        shortest decimal that is it: 0.05, not 0.05000000074505806). Needs one
+        model's concrete values."""
+        return {
+            name: _scalar(self, name)
+            for name in (*self.parameter_names, "energy_scale", "pinch_lambda")
+        }
 
     def saturation(self) -> Float[Array, ""]:
         """zu = (1/(beta + gamma))^(1/n): where the undegraded hysteretic

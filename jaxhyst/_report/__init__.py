@@ -3,7 +3,7 @@ report with the same report as one self-contained HTML file next to it, and cons
 summaries.
 
 Shared by the `jaxhyst fit` / `diagnose` / `demo` / `compensate` commands and usable
-from notebooks (every writer is exported as `jh.<name>`):
+from notebooks (every writer is public as `jaxhyst.report.<name>`):
 
 - `write_fit_figures(fit, recording, directory)`: the measured-vs-model loop, time
   histories and absolute-error trend of one fit (the paper's Figures 8-10 layout).
@@ -29,61 +29,49 @@ and one improvement: `rmse_change(diagnosis)` (the base model's RMSE on all
 samples -> the final model's, in percent).
 
 Figures need matplotlib (`pip install 'jaxhyst[plot]'`); they are drawn by the
-`plot_*` functions of `jaxhyst._plots` and saved by its `save_figure`. Like
-everything that writes files here, the writers refuse to replace existing files
-unless `overwrite=True` (`jaxhyst._files`).
-
-Each name is imported from its module when first used (`jaxhyst._lazy`), so that
-`jaxhyst fit` does not import the diagnosis and compensation reports.
+`plot_*` functions of `jaxhyst._plots` (public in `jaxhyst.report`) and saved by
+its `save_figure`. Like everything that writes files here, the writers refuse to
+replace existing files unless `overwrite=True` (`jaxhyst._files`).
 """
 
-from typing import TYPE_CHECKING
-
-from .._lazy import lazy_exports
-
-
-if TYPE_CHECKING:
-    from ._blocks import (
-        Block as Block,
-        Bullets as Bullets,
-        Heading as Heading,
-        Image as Image,
-        Item as Item,
-        Paragraph as Paragraph,
-        Table as Table,
-    )
-    from ._common import (
-        RmseChange as RmseChange,
-        display_unit as display_unit,
-        rmse_change as rmse_change,
-    )
-    from ._compensation import (
-        COMPENSATION_FIGURES as COMPENSATION_FIGURES,
-        write_compensation_report as write_compensation_report,
-    )
-    from ._console import (
-        diagnosis_summary as diagnosis_summary,
-        fit_summary as fit_summary,
-    )
-    from ._diagnosis import (
-        diagnosis_blocks as diagnosis_blocks,
-        diagnosis_html as diagnosis_html,
-        diagnosis_markdown as diagnosis_markdown,
-        metrics_table as metrics_table,
-        write_diagnosis_html as write_diagnosis_html,
-        write_diagnosis_report as write_diagnosis_report,
-    )
-    from ._figures import (
-        CAPTIONS as CAPTIONS,
-        DIAGNOSIS_FIGURES as DIAGNOSIS_FIGURES,
-        FIT_FIGURES as FIT_FIGURES,
-        loop_figure as loop_figure,
-        write_diagnosis_figures as write_diagnosis_figures,
-        write_fit_figures as write_fit_figures,
-    )
-    from ._html import to_html as to_html
-    from ._markdown import to_markdown as to_markdown
-    from ._output import html_path as html_path, write_report as write_report
-
-
-__getattr__, __dir__, __all__ = lazy_exports(__name__, __file__)
+from ._blocks import (
+    Block as Block,
+    Bullets as Bullets,
+    Heading as Heading,
+    Image as Image,
+    Item as Item,
+    Paragraph as Paragraph,
+    Table as Table,
+)
+from ._common import (
+    RmseChange as RmseChange,
+    display_unit as display_unit,
+    rmse_change as rmse_change,
+)
+from ._compensation import (
+    COMPENSATION_FIGURES as COMPENSATION_FIGURES,
+    write_compensation_report as write_compensation_report,
+)
+from ._console import (
+    diagnosis_summary as diagnosis_summary,
+    fit_summary as fit_summary,
+)
+from ._diagnosis import (
+    diagnosis_blocks as diagnosis_blocks,
+    diagnosis_html as diagnosis_html,
+    diagnosis_markdown as diagnosis_markdown,
+    metrics_table as metrics_table,
+    write_diagnosis_html as write_diagnosis_html,
+    write_diagnosis_report as write_diagnosis_report,
+)
+from ._figures import (
+    CAPTIONS as CAPTIONS,
+    DIAGNOSIS_FIGURES as DIAGNOSIS_FIGURES,
+    FIT_FIGURES as FIT_FIGURES,
+    loop_figure as loop_figure,
+    write_diagnosis_figures as write_diagnosis_figures,
+    write_fit_figures as write_fit_figures,
+)
+from ._html import to_html as to_html
+from ._markdown import to_markdown as to_markdown
+from ._output import html_path as html_path, write_report as write_report

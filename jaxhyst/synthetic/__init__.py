@@ -4,7 +4,8 @@ The diagnosis has to be proven on records where an effect is *concealed* (it cha
 the output by only a few noise sigmas) and on clean records, where nothing may be
 named. These generators make such records for every family, with truth forms that
 differ from the diagnosis catalogue's own equations, and effect names taken from the
-catalogue (`jh.EFFECT_NAMES`, `jh.STRUCTURAL_EFFECT_NAMES`, `jh.DAMPER_EFFECT_NAMES`):
+catalogue (`jh.families.EFFECT_NAMES`, `jh.families.STRUCTURAL_EFFECT_NAMES`,
+`jh.families.DAMPER_EFFECT_NAMES`):
 
 - piezo: `concealed_recording` (under `rich_excitation`), `practical_recording`
   (under a plain drive: `SineExcitation`, `SwitchOnSine`) and `demo_recording`, each
@@ -13,7 +14,7 @@ catalogue (`jh.EFFECT_NAMES`, `jh.STRUCTURAL_EFFECT_NAMES`, `jh.DAMPER_EFFECT_NA
   made by a `StructuralTruth` around `structural_base_truth`;
 - MR damper: `damper_recording` (a white-noise test: random displacement, random
   piecewise-constant command), a `DamperCase` made by a `DamperTruth`
-  (`jh.DAMPER_EFFECT_NAMES`, forms in `DAMPER_FORMS`).
+  (`jh.families.DAMPER_EFFECT_NAMES`, forms in `DAMPER_FORMS`).
 """
 
 from ._cases import (

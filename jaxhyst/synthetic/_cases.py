@@ -172,9 +172,9 @@ def concealed_recording(
     size_sigmas: float | Mapping[str, float] | None = None,
 ) -> ConcealedCase:
     """A recording of a paper-like piezo stage (`base_truth`) under `rich_excitation`
-    that conceals `effects` (the piezo catalogue's names, `jh.EFFECT_NAMES`: asymmetry,
-    input_bias, rate_dependence, creep, dynamics, drift; `()` gives a clean recording),
-    plus sensor noise.
+    that conceals `effects` (the piezo catalogue's names, `jh.families.EFFECT_NAMES`:
+    asymmetry, input_bias, rate_dependence, creep, dynamics, drift; `()` gives a clean
+    recording), plus sensor noise.
 
     Each effect's form differs from the diagnosis catalogue's (see `ConcealedTruth`)
     and its size is set so that the RMS of the change it makes, alone, is

@@ -398,9 +398,9 @@ def damper_recording(
 ) -> DamperCase:
     """A white-noise characterisation test of an MR damper (`duration` s sampled at
     `rate` Hz; default Dyke's 3004.8 Hz) that conceals `effects` (the damper
-    catalogue's names, `jh.DAMPER_EFFECT_NAMES`: field_dependence, driver_lag,
-    rolloff, offset, asymmetry; `()` gives a clean record: a damper that ignores
-    its command), plus load-cell noise.
+    catalogue's names, `jh.families.DAMPER_EFFECT_NAMES`: field_dependence,
+    driver_lag, rolloff, offset, asymmetry; `()` gives a clean record: a damper that
+    ignores its command), plus load-cell noise.
 
     Each effect's form differs from the diagnosis catalogue's (`ExtendedDamper`;
     see `DamperTruth` and `DAMPER_FORMS`), drawn from the key. Its size is set so

@@ -69,8 +69,8 @@ def structural_recording(
     Bouc-Wen restoring force, x in mm, F in kN) under an imposed-displacement
     `protocol` ("cyclic" or "earthquake", see `loading_protocol`) of `points`
     samples, that conceals `effects` (the structural catalogue's names,
-    `jh.STRUCTURAL_EFFECT_NAMES`: degradation, pinching, asymmetry, drift; `()` gives
-    a clean recording), plus load-cell noise.
+    `jh.families.STRUCTURAL_EFFECT_NAMES`: degradation, pinching, asymmetry, drift;
+    `()` gives a clean recording), plus load-cell noise.
 
     Each effect's form differs from the diagnosis catalogue's (`StructuralBoucWen`;
     see `StructuralTruth`), two forms per mechanical effect, drawn from the key.
