@@ -22,3 +22,78 @@ def _release_compiled_programs():
     yield
     jax.clear_caches()
     gc.collect()
+
+
+# Long end-to-end variants run with `-m slow` only: each behaviour they check is
+# covered in the fast suite by a shorter test (named after the reason) or by a
+# sibling variant. Seconds: the 2-core machine, loaded, session 36.
+SLOW = {
+    "test_diagnose_several.py::test_command_line_diagnoses_several_files": (
+        "276 s; several recordings are diagnosed together in Python by "
+        "test_diagnose_several's other tests, and the CLI's diagnose by test_cli"
+    ),
+    "test_damper_diagnose.py::test_every_effect_off_is_the_fixed_field_damper": (
+        "96 s; the same identity for the piezo and structural families stays fast"
+    ),
+    "test_damper_diagnose.py::test_the_base_swarm_is_restarted_out_of_a_wrong_basin": (
+        "67 s; a rare-path restart of the damper base fit"
+    ),
+    "test_damper_diagnose.py::test_synthetic_damper_cases": (
+        "41 s; the damper generator's cases, also run by benchmarks/damper_suite.py"
+    ),
+    "test_refit.py::test_gains_held_at_zero_leave_the_output_and_the_other_slopes_unchanged[structural]": (
+        "56 s; the piezo variant checks the same mechanism"
+    ),
+    "test_refit.py::test_gains_held_at_zero_leave_the_output_and_the_other_slopes_unchanged[damper]": (
+        "54 s; the piezo variant checks the same mechanism"
+    ),
+    "test_compensate.py::test_a_time_shifted_hysteresis_is_inverted_without_shifting_the_linear_term[0.02]": (
+        "the -0.02 variant checks the same inversion"
+    ),
+    "test_compensate.py::test_lagging_models_get_a_drive_ahead_of_time[stage]": (
+        "38 s; the time_shift variant checks a drive ahead of time"
+    ),
+    "test_compensate.py::test_lagging_models_get_a_drive_ahead_of_time[stage_with_drift]": (
+        "31 s; the time_shift variant checks a drive ahead of time"
+    ),
+    "test_compensate.py::test_lagging_models_get_a_drive_ahead_of_time[stage_optimised]": (
+        "29 s; the optimised drive is checked on the corrected model too"
+    ),
+    "test_compensate.py::test_inverse_recovers_the_drive_that_made_the_reference[corrected]": (
+        "35 s; the piezo variant checks the same inversion"
+    ),
+    "test_compensate.py::test_inverse_recovers_the_drive_that_made_the_reference[extended]": (
+        "38 s; the piezo variant checks the same inversion"
+    ),
+    "test_simulate.py::test_gradients_match_finite_differences[smoothing1]": (
+        "51 s; the same finite-difference check with the other sign smoothing"
+    ),
+    "test_simulate.py::test_input_bias_gradient_matches_sample_scale_differences": (
+        "47 s; gradients are checked against finite differences in the fast suite"
+    ),
+    "test_simulate.py::test_simulate_runs_without_jit": (
+        "39 s; op-by-op execution of the whole scan"
+    ),
+    "test_swarm.py::test_two_devices_match_single_device": (
+        "40 s; a subprocess with two host devices"
+    ),
+    "test_placement.py::test_identify_on_an_explicit_polish_device_gives_the_same_fit": (
+        "28 s; a second full fit; placement itself is checked by the other tests"
+    ),
+    "test_cli.py::test_fit_window_cuts_the_record": (
+        "39 s; Recording.segment is tested directly in test_recording"
+    ),
+    "test_cli.py::test_fit_corrected_runs_the_two_stages": (
+        "26 s; the two-stage fit is tested in Python in test_identify"
+    ),
+    "test_damper.py::test_recommended_substeps_at_published_conditions[0.0]": (
+        "25 s; the 2.25 V variant checks the same rule"
+    ),
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        name = item.nodeid.split("tests/", 1)[-1]
+        if name in SLOW:
+            item.add_marker(pytest.mark.slow)
