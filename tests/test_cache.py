@@ -244,3 +244,40 @@ def test_the_package_starts_without_the_reference_solver():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "Tsit5"
+
+
+def test_one_shot_commands_compile_quickly_and_a_diagnosis_does_not(monkeypatch):
+    from jaxhyst._cli import _main
+
+    monkeypatch.setattr(_main, "_jaxlib_version", lambda: (0, 10))
+    quick = "--xla_cpu_use_fusion_emitters=false"
+    assert _main.quick_compile_flags(["fit", "r.csv"], {}) == quick
+    assert (
+        _main.quick_compile_flags(["fit"], {"XLA_FLAGS": "--a=1"}) == f"--a=1 {quick}"
+    )
+    assert _main.quick_compile_flags(["diagnose", "r.csv"], {}) is None
+    assert _main.quick_compile_flags(["demo"], {}) is None
+    assert _main.quick_compile_flags(["--help"], {}) is None
+    # The user's choice of emitters wins, and an unknown jaxlib gets no flag.
+    mine = {"XLA_FLAGS": "--xla_cpu_use_fusion_emitters=true"}
+    assert _main.quick_compile_flags(["fit"], mine) is None
+    monkeypatch.setattr(_main, "_jaxlib_version", lambda: (0, 99))
+    assert _main.quick_compile_flags(["fit"], {}) is None
+
+
+def test_the_installed_jaxlib_accepts_the_quick_compile_flag():
+    # The flag is set only for jaxlib releases known to have it; this one runs it.
+    from jaxhyst._cli import _main
+
+    low, high = _main._QUICK_COMPILE_JAXLIB
+    if not low <= _main._jaxlib_version() < high:
+        pytest.skip("this jaxlib is outside the releases known to have the flag")
+    env = dict(os.environ, XLA_FLAGS=_main._QUICK_COMPILE_FLAG, JAX_PLATFORMS="cpu")
+    done = subprocess.run(
+        [sys.executable, "-c", "import jax, jax.numpy as j; print(j.sin(1.0))"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr

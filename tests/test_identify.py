@@ -379,7 +379,7 @@ def test_the_polish_program_scores_with_one_call_of_the_loss(monkeypatch):
         return scored(*args)
 
     monkeypatch.setattr(_polish, "problem_rmse", counted)
-    eqx.filter_make_jaxpr(_polish._optimistix_loop)(
+    eqx.filter_make_jaxpr(_polish._optimistix_loop.__wrapped__)(
         *polish._loop_arguments(problem, z0)
     )
     assert len(calls) == 1

@@ -6,8 +6,8 @@ notebooks/ (as when it is opened there); nothing is written back. After its last
 the kernel runs the notebook's checks (`KEY_RESULTS`: a fit reaches its noise floor,
 a diagnosis names the concealed effect, ...). A failing cell or check fails the test
 with that cell's number, source and error. Without nbclient, nbformat or ipykernel
-(the `test` extra) the tests are skipped. The notebooks take minutes each, so all but
-the diagnosis notebook are `slow` (`.ci/run` runs them after the fast suite).
+(the `test` extra) the tests are skipped. The notebooks take one to five minutes
+each, so they are `slow` (`pytest -m slow tests/test_notebooks.py`).
 """
 
 import pathlib
@@ -50,7 +50,7 @@ for reference in references:  # the diagnosed model tracks better than the plain
     assert diagnosed < plain, (reference, diagnosed, plain)
 """,
 }
-FAST = {"03_missing_physics.ipynb"}
+FAST: set[str] = set()  # every notebook takes a minute or more
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
 

@@ -3,6 +3,7 @@ turns user errors into one line on stderr."""
 
 import argparse
 import importlib
+import importlib.metadata
 import os
 import sys
 import traceback
@@ -125,6 +126,39 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
 
+# Commands that run each of their programs once or a few times: compiling is most of
+# their time, and XLA:CPU's elemental emitters compile in about half of it (a
+# diagnosis, which runs its programs dozens of times, keeps XLA's default, whose code
+# ran its refits 15-35 % faster; benchmarks/HISTORY.md, sessions 34 and 36).
+QUICK_COMPILE_COMMANDS = ("simulate", "fit", "evaluate", "compensate")
+_QUICK_COMPILE_FLAG = "--xla_cpu_use_fusion_emitters=false"
+# jaxlib releases known to have the flag (XLA aborts on one it does not know).
+_QUICK_COMPILE_JAXLIB = ((0, 6), (0, 11))
+
+
+def _jaxlib_version() -> tuple[int, ...]:
+    try:
+        text = importlib.metadata.version("jaxlib")
+    except importlib.metadata.PackageNotFoundError:
+        return ()
+    return tuple(int(part) for part in text.split(".")[:2] if part.isdigit())
+
+
+def quick_compile_flags(argv: Sequence[str], environ: dict[str, str]) -> str | None:
+    """The `XLA_FLAGS` a command line should run with, or None to leave them as they
+    are: the elemental emitters for `QUICK_COMPILE_COMMANDS`, unless the user's
+    `XLA_FLAGS` chooses the emitters or jaxlib is not one known to have the flag."""
+    flags = environ.get("XLA_FLAGS", "")
+    low, high = _QUICK_COMPILE_JAXLIB
+    if (
+        _named_command(argv) not in QUICK_COMPILE_COMMANDS
+        or "xla_cpu_use_fusion_emitters" in flags
+        or not low <= _jaxlib_version() < high
+    ):
+        return None
+    return f"{flags} {_QUICK_COMPILE_FLAG}".strip()
+
+
 def script() -> NoReturn:
     """The `jaxhyst` console script and `python -m jaxhyst`: `main()`, then the
     process ends at once with its exit status (`os._exit`, after flushing stdout
@@ -133,7 +167,12 @@ def script() -> NoReturn:
     2.7 s warm `jaxhyst fit`, and there is nothing left for it to do: every file a
     command writes is closed before `main` returns, and JAX writes its cache when it
     compiles. An exception escaping `main` (a bug)
-    takes Python's normal path, traceback included."""
+    takes Python's normal path, traceback included. Before JAX starts its backend it
+    sets the command's XLA flags (`quick_compile_flags`): an application's choice,
+    made here at the edge and not by the library."""
+    flags = quick_compile_flags(sys.argv[1:], dict(os.environ))
+    if flags is not None:
+        os.environ["XLA_FLAGS"] = flags
     status = main()
     try:
         sys.stdout.flush()
