@@ -23,13 +23,17 @@ def _sources():
     return sorted(PACKAGE.rglob("*.py"))
 
 
-def test_no_private_jax_anywhere_in_the_package():
-    found = [
+def _lines_matching(pattern: re.Pattern) -> list[str]:
+    return [
         f"{path.relative_to(PACKAGE)}:{number}: {line.strip()}"
         for path in _sources()
         for number, line in enumerate(path.read_text().splitlines(), 1)
-        if PRIVATE.search(line)
+        if pattern.search(line)
     ]
+
+
+def test_no_private_jax_anywhere_in_the_package():
+    found = _lines_matching(PRIVATE)
     assert not found, "\n".join(found)
 
 
@@ -49,10 +53,5 @@ def test_the_library_jits_with_equinox_only():
     pattern = re.compile(
         r"compiler_options|\)\.lower\(|\.compile\(\)|jax\.export|jax\.jit\("
     )
-    found = [
-        f"{path.relative_to(PACKAGE)}:{number}: {line.strip()}"
-        for path in _sources()
-        for number, line in enumerate(path.read_text().splitlines(), 1)
-        if pattern.search(line)
-    ]
+    found = _lines_matching(pattern)
     assert not found, "\n".join(found)
