@@ -421,7 +421,6 @@ def identify(
         z, polish_result = refine(
             [PolishStage("polish", problem, polish)], seeds, timing
         )
-    with running_on(device):
         fitted = model_at(problem.space, z)
         report = None
         if analyse:
