@@ -2,6 +2,7 @@
 quick positive and a quick clean diagnosis."""
 
 import dataclasses
+import json
 
 import jax
 import jax.numpy as jnp
@@ -535,3 +536,49 @@ def test_an_effect_the_score_cannot_screen_is_refitted_and_judged_held_out(
     assert drift.validation is not None and not drift.validation.accepted
     assert drift.rejection is not None and drift.rejection != "not significant"
     assert diagnosis.findings == []
+
+
+@pytest.mark.parametrize("failure", ["non-finite sensitivities", "svd"])
+def test_a_numerically_degenerate_refit_rejects_its_candidate_not_the_diagnosis(
+    monkeypatch, failure
+):
+    # A candidate whose refit problem is degenerate (non-finite sensitivity columns,
+    # or an SVD that does not converge: seen on a short real shear test with a large
+    # strength loss) is rejected with its reason; the diagnosis runs to its end.
+    # Drift is the structural effect whose refit solves its terms in closed form;
+    # it is forced to a refit as in the test above.
+    import sys
+
+    from jaxhyst._diagnose import _refit
+    from jaxhyst._diagnose._effects.drift import Drift
+
+    monkeypatch.setattr(Drift, "score_screens", lambda self: False)
+    if failure == "svd":
+        svd = np.linalg.svd
+
+        def failing(*args, **kwargs):
+            if sys._getframe(1).f_globals.get("__name__") == _refit.__name__:
+                raise np.linalg.LinAlgError("SVD did not converge")
+            return svd(*args, **kwargs)
+
+        monkeypatch.setattr(np.linalg, "svd", failing)
+    else:
+        directions = _refit._residual_directions
+
+        def nonfinite(problem, z, coordinates):
+            return directions(problem, z, coordinates) * jnp.nan
+
+        monkeypatch.setattr(_refit, "_residual_directions", nonfinite)
+    x = _protocol()
+    clean, _ = _record(x, _truth(x), seed=1)
+    diagnosis = jh.diagnose(
+        clean,
+        key=jax.random.key(0),
+        family=jh.families.StructuralFamily(),
+        swarm=jh.MPSO(num_particles=48, num_iterations=60),
+    )
+    drift = next(s for s in diagnosis.rounds[0] if s.effect == "drift")
+    assert drift.rejection is not None
+    assert "numerically degenerate" in drift.rejection
+    assert diagnosis.findings == []
+    assert "numerically degenerate" in json.dumps(diagnosis.to_dict())

@@ -40,7 +40,7 @@ from ._locate import effective_samples
 from ._policy import AdoptionPolicy
 from ._progress import Progress
 from ._records import BATCH, DiagnosisRecords
-from ._refit import RefitSettings, fitted_names, idle_gains, refit
+from ._refit import DegenerateRefit, RefitSettings, fitted_names, idle_gains, refit
 from ._remainder import remainder
 from ._results import (
     RESOLVED_SIGMA,
@@ -109,6 +109,12 @@ class _Trial(eqx.Module):
     joint: bool = False
     # The parameters the refit fitted (the others held where `start` had them).
     free: tuple[str, ...] = ()
+
+
+class _Failed(eqx.Module):
+    """A candidate whose refit produced no model to validate, and why."""
+
+    reason: str
 
 
 class _State(eqx.Module):
@@ -207,6 +213,15 @@ def _refit(
         settings,
         key=key,
     )
+
+
+def _refit_or_none(ctx: _Context, state: _State, model, free, **options):
+    """`_refit`, or None where it is numerically degenerate (`DegenerateRefit`):
+    the caller keeps what it had, as after a refit that diverged."""
+    try:
+        return _refit(ctx, state, model, free, **options)
+    except DegenerateRefit:
+        return None
 
 
 def _predict(ctx: _Context, model) -> np.ndarray:
@@ -622,14 +637,14 @@ def _refit_candidates(
             )
             updated[c.effect] = dataclasses.replace(updated[c.effect], rejection=reason)
 
-    def attempt(numbered: tuple[int, Score]) -> _Trial | None:
+    def attempt(numbered: tuple[int, Score]) -> _Trial | _Failed:
         # The key counts the trials made before this one: `number` of them when
-        # none of those diverged.
+        # none of those failed.
         number, c = numbered
         effect = family.effect(c.effect)
         key = jax.random.fold_in(ctx.key, 1000 * len(state.findings) + number)
         trial = _trial(ctx, state, updated[c.effect], (effect,), starts[c.effect], key)
-        if trial is not None and not trial.validation.accepted:
+        if isinstance(trial, _Trial) and not trial.validation.accepted:
             trial = _with_dependents(ctx, state, trial, effect, scales, key)
         return trial
 
@@ -638,11 +653,11 @@ def _refit_candidates(
     with side_by_side(attempt, numbered) as attempted:
         outcomes = list(attempted)
     for (number, c), trial in zip(numbered, outcomes):
-        if number != len(trials):  # an earlier one diverged: its key was not this
+        if number != len(trials):  # an earlier one failed: its key was not this
             trial = attempt((len(trials), c))
-        if trial is None:
+        if isinstance(trial, _Failed):
             updated[c.effect] = dataclasses.replace(
-                updated[c.effect], rejection="the refitted model diverged"
+                updated[c.effect], rejection=trial.reason
             )
             continue
         updated[c.effect] = trial.score
@@ -667,26 +682,33 @@ def _trial(
     effects: tuple[AbstractEffect, ...],
     start: AbstractHysteresisModel,
     key: PRNGKeyArray,
-) -> _Trial | None:
+) -> _Trial | _Failed:
     """`effects` (the scored one, then any dependents) refitted together from
     `start` and validated on the held-out samples (against the null refit when the
-    policy asks); None if the refit diverged."""
+    policy asks); `_Failed` if the refit diverged or was numerically degenerate
+    (`DegenerateRefit`): that candidate is rejected, the diagnosis goes on."""
     effect, dependents = effects[0], effects[1:]
     names = list(state.free) + [p for e in effects for p in e.parameters]
-    refitted = _refit(
-        ctx, state, start, names, max_steps=ctx.policy.candidate_steps, key=key
-    )
+    try:
+        refitted = _refit(
+            ctx, state, start, names, max_steps=ctx.policy.candidate_steps, key=key
+        )
+    except DegenerateRefit as error:
+        return _Failed(f"the refit was numerically degenerate: {error}")
     new_pred = _predict(ctx, refitted)
     if not _finite(new_pred):
-        return None
+        return _Failed("the refitted model diverged")
     parameters = sum(e.fitted_dof(refitted) for e in effects)
     validation = _validate(ctx, state, score, effect, new_pred, parameters=parameters)
     rejection = None if validation.accepted else _why_rejected(validation)
     null = None
     if ctx.policy.null_refit and validation.accepted:
-        validation, rejection, null = _against_null(
-            ctx, state, score, effects, refitted, new_pred, parameters=parameters
-        )
+        try:
+            validation, rejection, null = _against_null(
+                ctx, state, score, effects, refitted, new_pred, parameters=parameters
+            )
+        except DegenerateRefit:
+            pass  # no null refit to judge against: the validation above stands
     together = tuple(e.name for e in dependents)
     score = dataclasses.replace(
         score, validation=validation, rejection=rejection, together=together
@@ -722,15 +744,17 @@ def _with_dependents(
             scales,
             jax.random.fold_in(key, 1 + ctx.family.effect_names.index(dependent.name)),
         )
-        if together is not None and together.validation.accepted:
+        if isinstance(together, _Failed):
+            notes.append(f"refitted together with {dependent.name}, {together.reason}")
+            continue
+        if together.validation.accepted:
             return together
-        if together is not None:
-            v = together.validation
-            notes.append(
-                f"refitted together with {dependent.name}, the held-out RMSE went "
-                f"from {v.heldout_rmse_before:.3g} to {v.heldout_rmse_after:.3g}: "
-                + (together.score.rejection or "")
-            )
+        v = together.validation
+        notes.append(
+            f"refitted together with {dependent.name}, the held-out RMSE went "
+            f"from {v.heldout_rmse_before:.3g} to {v.heldout_rmse_after:.3g}: "
+            + (together.score.rejection or "")
+        )
     if not notes:
         return alone
     rejection = "; ".join([alone.score.rejection or "", *notes])
@@ -781,7 +805,7 @@ def _jointly(ctx: _Context, state: _State, trials: list[_Trial]) -> _Trial | Non
                 + family.effect_names.index(partner.name),
             ),
         )
-        if pair is not None and pair.validation.accepted:
+        if isinstance(pair, _Trial) and pair.validation.accepted:
             return dataclasses.replace(pair, joint=True)
     return None
 
@@ -794,7 +818,7 @@ def _refit_with(
     step: dict[str, float],
     scales: RefitScales,
     key: PRNGKeyArray,
-) -> _Trial | None:
+) -> _Trial | _Failed:
     """`alone`'s effect (`effects[0]`) refitted together with `effects[1]`, from
     `alone`'s refit with the second switched on at its best starting point (from
     its score-test `step`); validated as one candidate."""
@@ -926,7 +950,11 @@ def _adopt(ctx: _Context, state: _State, trials: list[_Trial]) -> _State:
         findings=state.findings + findings,
     )
     ctx.progress.say(f"adopted {label}; converging the model with it")
-    current = _refit(ctx, state, winner.model, free, max_steps=policy.converge_steps)
+    current = _refit_or_none(
+        ctx, state, winner.model, free, max_steps=policy.converge_steps
+    )
+    if current is None:
+        return state
     predicted = _predict(ctx, current)
     if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
         ctx.y - winner.predicted, ctx.fit_mask
@@ -1098,15 +1126,17 @@ def _backward(ctx: _Context, state: _State) -> _State:
         def without(finding: Finding, state: _State = state):
             effect = family.effect(finding.effect)
             names = tuple(p for p in state.free if p not in effect.parameters)
-            reduced = _refit(
+            reduced = _refit_or_none(
                 ctx, state, effect.switch_off(state.current), names, max_steps=20
             )
+            if reduced is None:  # no reduced model to judge by: the effect stays
+                return names, None, None
             return names, reduced, _predict(ctx, reduced)
 
         with side_by_side(without, state.findings) as refitted:
             reductions = list(zip(state.findings, refitted))
         for finding, (names, reduced, reduced_pred) in reductions:
-            if not _finite(reduced_pred):
+            if reduced_pred is None or not _finite(reduced_pred):
                 continue
             loss = _mse(ctx.y - reduced_pred, ctx.hold_mask) - hold_now
             change = float(
@@ -1173,7 +1203,7 @@ def _rivals(ctx: _Context, state: _State) -> _State:
             for name, (names, swapped, swapped_pred) in zip(others, swaps):
                 alternative = family.effect(name)
                 trial, where_then = state.passed_trials.get(name, (None, None))
-                if not _finite(swapped_pred):
+                if swapped is None or swapped_pred is None or not _finite(swapped_pred):
                     continue
                 kept_mse, rival_mse, se = _heldout_comparison(
                     ctx, state, state.predicted, swapped_pred
@@ -1248,9 +1278,10 @@ def _swapped_in(
     position: int,
     adopted_effect: AbstractEffect,
     name: str,
-) -> tuple[tuple[str, ...], AbstractHysteresisModel, np.ndarray]:
+) -> tuple[tuple[str, ...], AbstractHysteresisModel | None, np.ndarray | None]:
     """The rival `name` refitted in the place of the finding at `position` (with
-    the other findings kept): the refit's free parameters, the model, its output."""
+    the other findings kept): the refit's free parameters, the model, its output
+    (None for both where the refit is numerically degenerate)."""
     family = ctx.family
     alternative = family.effect(name)
     names = tuple(p for p in state.free if p not in adopted_effect.parameters) + tuple(
@@ -1270,7 +1301,9 @@ def _swapped_in(
     key = jax.random.fold_in(
         ctx.key, 7919 + 97 * position + family.effect_names.index(name)
     )
-    swapped = _refit(ctx, state, start, names, max_steps=20, key=key)
+    swapped = _refit_or_none(ctx, state, start, names, max_steps=20, key=key)
+    if swapped is None:  # no rival model to compare: the finding stays
+        return names, None, None
     return names, swapped, _predict(ctx, swapped)
 
 
@@ -1385,9 +1418,11 @@ def _replace_finding(
         + (Ambiguity(message),),
         contrasts=tuple(c for c in state.contrasts if c.separates != superseded),
     )
-    current = _refit(
+    current = _refit_or_none(
         ctx, state, swapped, swap.names, max_steps=ctx.policy.converge_steps
     )
+    if current is None:
+        return state
     predicted = _predict(ctx, current)
     if not _finite(predicted) or _mse(ctx.y - predicted, ctx.fit_mask) > _mse(
         ctx.y - swapped_pred, ctx.fit_mask
@@ -1411,7 +1446,7 @@ def _final_refit(
     ctx.progress.say("final refit on every sample")
     # Unit weights rather than None: the same structure as the masked refits, so
     # this fit reuses their compiled Levenberg-Marquardt program.
-    final_model = _refit(
+    final_model = _refit_or_none(
         ctx,
         state,
         state.current,
@@ -1420,6 +1455,8 @@ def _final_refit(
         weights=ctx.records.stacked(np.ones(ctx.y.shape, ctx.y.dtype)),
         natural={},
     )
+    if final_model is None:
+        return state.current, state.predicted
     final_pred = _predict(ctx, final_model)
     if _finite(final_pred) and _mse(ctx.y - final_pred, slice(None)) <= _mse(
         ctx.y - state.predicted, slice(None)

@@ -68,6 +68,13 @@ def refit_space(
     )
 
 
+class DegenerateRefit(Exception):
+    """A refit that cannot be carried out at its start: the residuals' sensitivity
+    to its closed-form (additive) coordinates is not finite there, or the least
+    squares over them fail to converge. The diagnosis rejects the candidate with
+    this reason instead of stopping."""
+
+
 class RefitSettings(eqx.Module):
     """The swarm and polish of one refit."""
 
@@ -128,7 +135,8 @@ def refit(
             stall_iterations=20,
             throw=False,
         )
-        if float(problem_rmse(problem, swarm.best_x)) < float(
+        # A start whose output is not finite loses to any finite swarm best.
+        if _finite_or_inf(problem_rmse(problem, swarm.best_x)) < _finite_or_inf(
             problem_rmse(problem, z0)
         ):
             z0 = swarm.best_x
@@ -154,6 +162,11 @@ def refit(
         # `ActiveProblem` offers the part of `Problem` a polish uses.
         z = polish.run(active, z).z  # pyright: ignore[reportArgumentType]
     return model_at(space, active.solved(z)).held_at_zero(())
+
+
+def _finite_or_inf(value) -> float:
+    value = float(value)
+    return value if math.isfinite(value) else math.inf
 
 
 def idle_gains(
@@ -241,13 +254,24 @@ class ActiveProblem(eqx.Module):
         directions = basis = penalty = None
         if len(additive_index):
             columns = np.asarray(_residual_directions(problem, z0, additive))
+            if not np.all(np.isfinite(columns)):
+                raise DegenerateRefit(
+                    "the output's sensitivity to "
+                    + ", ".join(problem.space.names[i] for i in additive_index)
+                    + " is not finite at the refit's start"
+                )
             rows, start = _spline_penalty(problem.space, z0, additive, columns, splines)
             if rows.shape[0]:
                 # Without a spline there is no penalty: the residuals are the problem's.
                 columns = np.concatenate([columns, rows])
                 penalty = jnp.asarray(start)
             directions = jnp.asarray(columns)
-            left, singular, _ = np.linalg.svd(columns, full_matrices=False)
+            try:
+                left, singular, _ = np.linalg.svd(columns, full_matrices=False)
+            except np.linalg.LinAlgError as error:
+                raise DegenerateRefit(
+                    f"the least squares over the additive terms failed ({error})"
+                ) from error
             # Columns that all samples leave at zero (a term the weights mask out
             # entirely) span nothing: drop them rather than project a random
             # direction out.
@@ -304,7 +328,16 @@ class ActiveProblem(eqx.Module):
         residuals = np.asarray(
             self._with_penalty(problem_residuals(self.problem, full))
         )
-        step, *_ = np.linalg.lstsq(np.asarray(self.directions), -residuals, rcond=None)
+        if not np.all(np.isfinite(residuals)):
+            raise DegenerateRefit("the refitted model's residuals are not finite")
+        try:
+            step, *_ = np.linalg.lstsq(
+                np.asarray(self.directions), -residuals, rcond=None
+            )
+        except np.linalg.LinAlgError as error:
+            raise DegenerateRefit(
+                f"the least squares over the additive terms failed ({error})"
+            ) from error
         return full.at[self.additive].add(jnp.asarray(step, full.dtype))
 
     @property
