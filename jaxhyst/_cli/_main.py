@@ -15,6 +15,7 @@ import jax
 from .._cache import enable_compilation_cache
 from .._recording import RecordingError
 from ._options import PROG, one_line
+from ._words import cli_words
 
 
 # The commands in the order `jaxhyst --help` lists them; each is the module
@@ -117,12 +118,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as stop:  # --help and --version
         return stop.code if isinstance(stop.code, int) else 0
     except (RecordingError, ImportError, OSError) as error:
-        print(f"{PROG}: error: {one_line(error)}", file=sys.stderr)
+        print(f"{PROG}: error: {cli_words(error)}", file=sys.stderr)
         return 2
     except (ValueError, TypeError) as error:
         if not raised_by_jaxhyst(error):
             raise  # a bug (in jaxhyst's use of a library, or in one): its traceback
-        print(f"{PROG}: error: {one_line(error)}", file=sys.stderr)
+        print(f"{PROG}: error: {cli_words(error)}", file=sys.stderr)
         return 2
 
 

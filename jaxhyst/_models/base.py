@@ -19,7 +19,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._inputs import InputPath
-from .._recording import Recording
+from .._recording import Recording, RecordingError
 from .._smoothing import AbstractSmoothing, ExactSign
 
 
@@ -69,6 +69,48 @@ DriveT = TypeVar("DriveT", bound=AbstractDrive)
 SampleUpdate = Callable[[Array, Array, Array], Array]
 
 
+# The magnitudes a fit computes with: squared errors of signals beyond this range
+# overflow (or underflow) in double precision, so their peaks must lie within it.
+SCALE_RANGE = (1e-150, 1e150)
+
+
+def signal_scales(
+    values: Float[ArrayLike, " n"], role: str, owner: str = "DataScales"
+) -> tuple[float, float]:
+    """The peak max|x| and the rms of a recorded input or output (`role`), computed
+    on x / max|x| so that neither overflows nor underflows. Raises `RecordingError`
+    (its `cli` in the command line's words, its `kind` "constant" or "scale") for a
+    constant signal, and for one whose peak lies outside `SCALE_RANGE`."""
+    x = np.asarray(values, dtype=np.float64)
+    peak = float(np.max(np.abs(x)))
+    option = "--input" if role == "input" else "--output"
+    if float(np.ptp(x)) == 0:
+        problem = (
+            f"the {role} is constant ({float(x[0]):.6g}) over the whole record; a "
+            "constant signal cannot identify a model"
+        )
+        raise RecordingError(
+            f"{problem}; check the column selection.",
+            owner=owner,
+            cli=f"{problem}; check {option}, or pick --start/--end where it varies.",
+            kind="constant",
+        )
+    low, high = SCALE_RANGE
+    if not low <= peak <= high:
+        size = "large" if peak > high else "small"
+        problem = (
+            f"the {role} peaks at {peak:.3g}, too {size} to fit in double precision "
+            f"(squared errors {'overflow' if size == 'large' else 'underflow'}; "
+            f"peaks from {low:g} to {high:g} are fine)"
+        )
+        fix = "rescale it: express it in other units"
+        raise RecordingError(
+            f"{problem}; {fix}.", owner=owner, cli=f"{problem}; {fix}.", kind="scale"
+        )
+    rms = peak * math.sqrt(float(np.mean(np.square(x / peak))))
+    return peak, rms
+
+
 class DataScales(eqx.Module):
     """The scales of a record that default search bounds are set from: peaks
     (max|u|, max|y|), rms values, duration and sample rate, all positive and finite,
@@ -95,9 +137,15 @@ class DataScales(eqx.Module):
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
+                why = (
+                    "a signal that is zero throughout cannot identify a model"
+                    if value == 0
+                    else "rescale the data (other units), or compute the rms on "
+                    "scaled values (DataScales.of does)"
+                )
                 raise ValueError(
                     f"DataScales: {name} ({label}) = {value:g} must be positive and "
-                    "finite; a constant input or output cannot identify a model."
+                    f"finite; {why}."
                 )
         for name in ("duration", "sample_rate"):
             value = getattr(self, name)
@@ -123,11 +171,14 @@ class DataScales(eqx.Module):
             )
         u, y = np.asarray(recording.u), np.asarray(recording.y)
         more = np.asarray(getattr(recording, "more_inputs", np.zeros((0, u.size))))
+        owner = f"DataScales.of({getattr(recording, 'name', 'recording')!r})"
+        input_peak, input_rms = signal_scales(u, "input", owner)
+        output_peak, output_rms = signal_scales(y, "output", owner)
         return cls(
-            input_peak=float(np.max(np.abs(u))),
-            output_peak=float(np.max(np.abs(y))),
-            input_rms=float(np.sqrt(np.mean(u**2))),
-            output_rms=float(np.sqrt(np.mean(y**2))),
+            input_peak=input_peak,
+            output_peak=output_peak,
+            input_rms=input_rms,
+            output_rms=output_rms,
             duration=float(recording.duration),
             sample_rate=float(recording.sample_rate),
             more_input_peaks=tuple(float(np.max(np.abs(row))) for row in more),
