@@ -33,12 +33,14 @@ class RecordingError(ValueError):
     that prefix, and `cli`, the message as the command line says it where the fix
     differs (flags instead of Python arguments; None: `problem` says it); `kind`
     names a class of problem where a caller may act on it ("constant", "scale";
-    None: any other)."""
+    None: any other), and `recording` the name of the recording the error is about
+    where its `cli` does not name it (the command line names its file)."""
 
     owner: str | None
     problem: str
     cli: str | None
     kind: str | None
+    recording: str | None
 
     def __init__(
         self,
@@ -47,12 +49,14 @@ class RecordingError(ValueError):
         owner: str | None = None,
         cli: str | None = None,
         kind: str | None = None,
+        recording: str | None = None,
     ):
         super().__init__(f"{owner}: {problem}" if owner else problem)
         self.owner = owner
         self.problem = problem
         self.cli = cli
         self.kind = kind
+        self.recording = recording
 
     @property
     def cli_message(self) -> str:
@@ -658,7 +662,11 @@ class Recording(eqx.Module):
         if self.num_samples < minimum:
             raise RecordingError(
                 f"Recording {self.name!r} has {self.num_samples} samples; {what} "
-                f"needs at least {minimum}; use a longer (or finer) recording."
+                f"needs at least {minimum}; use a longer (or finer) recording.",
+                cli=f"has {self.num_samples} samples; {what} needs at least "
+                f"{minimum}; pass a longer recording (or one sampled at a higher "
+                "rate).",
+                recording=self.name,
             )
 
     # ------------------------------------------------------------------------- I/O
@@ -1131,7 +1139,13 @@ def _column_index(
                 f"{role}={selector} is out of range; {columns}.",
                 owner="Recording.load",
                 cli=f"--{role} {selector} is out of range: {columns}; pick one of "
-                "them.",
+                "them"
+                + (
+                    " (a file of displacement and force without time is read with "
+                    "--no-time)."
+                    if width == 2
+                    else "."
+                ),
             )
         unit = None
         if names is not None:

@@ -203,6 +203,16 @@ CASES: dict[str, Case] = {
         ("not uniformly sampled", "resample"),
     ),
     "one-sample": Case(_rows_text("t,u,y\n0,1,2\n", "short.csv"), fit(), ("sample",)),
+    "too-few-to-fit": Case(
+        lambda f: _csv(f / "brief.csv", _sine_rows(12)),
+        fit(),
+        ("12 samples", "at least 20"),
+    ),
+    "too-few-to-diagnose": Case(
+        lambda f: _csv(f / "brief.csv", _sine_rows(40)),
+        diagnose("--model", "bouc-wen"),
+        ("40 samples", "at least 100"),
+    ),
     "headerless-two-columns": Case(
         _rows_text(_TWO_COLUMNS, "loop.csv"),
         diagnose("--model", "bouc-wen"),
@@ -210,6 +220,11 @@ CASES: dict[str, Case] = {
     ),
     "headerless-three-columns": Case(
         _rows_text(_HEADERLESS, "raw.txt"), fit(), ("no header", "--no-header")
+    ),
+    "no-header-two-columns": Case(
+        _rows_text(_TWO_COLUMNS, "pairs.csv"),
+        fit("--no-header"),
+        ("--output 2", "--no-time"),
     ),
     "missing-file": Case(lambda f: f / "nowhere.csv", fit(), ("does not exist",)),
     "folder-as-file": Case(lambda f: f, fit(), ("folder",)),
@@ -250,7 +265,7 @@ CASES: dict[str, Case] = {
     "window-of-constant-output": Case(
         lambda f: _flat_tail(f / "tail.csv"),
         fit("--start", "0.25"),
-        ("--start/--end", "output is constant"),
+        ("output is constant (1) over the window --start/--end",),
     ),
     "evaluate-on-odd-file": Case(
         _rows_bytes(b"\x00\x01\x02", "blob.csv"),

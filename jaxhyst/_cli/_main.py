@@ -15,7 +15,7 @@ import jax
 from .._cache import enable_compilation_cache
 from .._recording import RecordingError
 from ._options import PROG, one_line
-from ._words import cli_words
+from ._words import SOURCES, cli_words
 
 
 # The commands in the order `jaxhyst --help` lists them; each is the module
@@ -106,6 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     jax.config.update("jax_enable_x64", True)
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
+    SOURCES.clear()
     try:
         args = parser.parse_args(argv)
         return args.run(args)

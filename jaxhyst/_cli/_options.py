@@ -12,7 +12,7 @@ from .._models.base import signal_scales
 from .._recording import Recording, RecordingError
 from .._swarm import MPSO
 from ._choices import PRESETS
-from ._words import in_file, one_line
+from ._words import SOURCES, in_file, one_line
 
 
 PROG = "jaxhyst"
@@ -176,6 +176,7 @@ def load_recording(args: argparse.Namespace, path: str | None = None) -> Recordi
     if path is None:
         path = str(args.recording)
     recording = _checked(_read_recording(args, path), path)
+    SOURCES[recording.name] = path
     if start is None and end is None:
         return recording
     first, last = float(recording.t[0]), float(recording.t[-1])
@@ -203,16 +204,11 @@ def _checked(recording: Recording, path: str, *, window: bool = False) -> Record
     """`recording`, after checking that its input and output can be fitted or
     compared with a model: not constant, and of magnitudes a fit computes with
     (`signal_scales`). Errors name the file (and the window, `window`)."""
+    span = "the window --start/--end" if window else "the whole record"
     for values, role in ((recording.u, "input"), (recording.y, "output")):
         try:
-            signal_scales(values, role)
+            signal_scales(values, role, span=span)
         except RecordingError as error:
-            if window:
-                error = RecordingError(
-                    f"in the window --start/--end, {error.problem}",
-                    cli=f"in the window --start/--end, {error.cli_message}",
-                    kind=error.kind,
-                )
             raise in_file(path, error) from None
     return recording
 

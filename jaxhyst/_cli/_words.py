@@ -65,10 +65,23 @@ def one_line(error: BaseException | str) -> str:
     return text or type(error).__name__
 
 
+SOURCES: dict[str, str] = {}
+"""The file each recording the running command read came from, by the recording's
+name (filled by `_options.load_recording`, emptied by `main` before a command), so
+that an error about a recording (`RecordingError.recording`) names its file."""
+
+
 def cli_words(error: BaseException) -> str:
     """`error` as the one line the command line prints after `jaxhyst: error: `."""
     if isinstance(error, RecordingError):
-        return one_line(error.cli_message)
+        text = one_line(error.cli_message)
+        if error.recording is not None:
+            source = SOURCES.get(error.recording)
+            name = (
+                repr(source) if source is not None else f"recording {error.recording!r}"
+            )
+            text = f"{name}: {text}"
+        return text
     text = one_line(error)
     for pattern, replacement in PYTHON_FIXES:
         text = pattern.sub(replacement, text)

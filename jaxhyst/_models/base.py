@@ -75,19 +75,27 @@ SCALE_RANGE = (1e-150, 1e150)
 
 
 def signal_scales(
-    values: Float[ArrayLike, " n"], role: str, owner: str = "DataScales"
+    values: Float[ArrayLike, " n"],
+    role: str,
+    owner: str = "DataScales",
+    *,
+    span: str = "the whole record",
+    constant: bool = True,
 ) -> tuple[float, float]:
-    """The peak max|x| and the rms of a recorded input or output (`role`), computed
-    on x / max|x| so that neither overflows nor underflows. Raises `RecordingError`
+    """The peak max|x| and the rms of a recorded input or output (`role`, over
+    `span`, as messages say), checked first so that neither overflows nor
+    underflows: its peak is measured, not its square (a signal that is zero
+    throughout: 0 and 0). Raises `RecordingError`
     (its `cli` in the command line's words, its `kind` "constant" or "scale") for a
-    constant signal, and for one whose peak lies outside `SCALE_RANGE`."""
+    constant signal (unless not `constant`: `DataScales` says that), and for one
+    whose peak is non-zero and outside `SCALE_RANGE`."""
     x = np.asarray(values, dtype=np.float64)
     peak = float(np.max(np.abs(x)))
     option = "--input" if role == "input" else "--output"
-    if float(np.ptp(x)) == 0:
+    if constant and float(np.ptp(x)) == 0:
         problem = (
-            f"the {role} is constant ({float(x[0]):.6g}) over the whole record; a "
-            "constant signal cannot identify a model"
+            f"the {role} is constant ({float(x[0]):.6g}) over {span}; a constant "
+            "signal cannot identify a model"
         )
         raise RecordingError(
             f"{problem}; check the column selection.",
@@ -95,6 +103,8 @@ def signal_scales(
             cli=f"{problem}; check {option}, or pick --start/--end where it varies.",
             kind="constant",
         )
+    if peak == 0:
+        return 0.0, 0.0
     low, high = SCALE_RANGE
     if not low <= peak <= high:
         size = "large" if peak > high else "small"
@@ -107,8 +117,9 @@ def signal_scales(
         raise RecordingError(
             f"{problem}; {fix}.", owner=owner, cli=f"{problem}; {fix}.", kind="scale"
         )
-    rms = peak * math.sqrt(float(np.mean(np.square(x / peak))))
-    return peak, rms
+    # Within SCALE_RANGE the squares lie between 1e-300 and 1e300: neither overflow
+    # nor underflow, so the rms is computed as it is everywhere else.
+    return peak, float(np.sqrt(np.mean(np.square(x))))
 
 
 class DataScales(eqx.Module):
@@ -138,7 +149,7 @@ class DataScales(eqx.Module):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 why = (
-                    "a signal that is zero throughout cannot identify a model"
+                    "a constant input or output cannot identify a model"
                     if value == 0
                     else "rescale the data (other units), or compute the rms on "
                     "scaled values (DataScales.of does)"
@@ -172,8 +183,8 @@ class DataScales(eqx.Module):
         u, y = np.asarray(recording.u), np.asarray(recording.y)
         more = np.asarray(getattr(recording, "more_inputs", np.zeros((0, u.size))))
         owner = f"DataScales.of({getattr(recording, 'name', 'recording')!r})"
-        input_peak, input_rms = signal_scales(u, "input", owner)
-        output_peak, output_rms = signal_scales(y, "output", owner)
+        input_peak, input_rms = signal_scales(u, "input", owner, constant=False)
+        output_peak, output_rms = signal_scales(y, "output", owner, constant=False)
         return cls(
             input_peak=input_peak,
             output_peak=output_peak,
