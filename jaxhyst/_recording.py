@@ -64,6 +64,13 @@ class RecordingError(ValueError):
         return self.problem if self.cli is None else self.cli
 
 
+class _FileNotFound(FileNotFoundError):
+    """A `FileNotFoundError` with the message in the command line's words as well
+    (`cli_message`, as a `RecordingError` has)."""
+
+    cli_message: str
+
+
 # The sample times may jitter around a uniform grid (CSV time stamps such as
 # 0.000200010001 do); deviations up to this fraction of the step are accepted.
 _UNIFORM_RTOL = 1e-3
@@ -540,11 +547,15 @@ class Recording(eqx.Module):
         keep = (self.t >= lo - tol) & (self.t <= hi + tol)
         count = int(keep.sum())
         if count < 2:
+            spanning = (
+                f"{count} sample(s) of a record spanning [{self.t[0]:.6g}, "
+                f"{self.t[-1]:.6g}] {self.time_unit}; pick a window with at least 2 "
+                "samples."
+            )
             raise RecordingError(
-                f"segment({start}, {stop}) holds {count} "
-                f"sample(s) of a record spanning [{self.t[0]:.6g}, {self.t[-1]:.6g}] "
-                f"{self.time_unit}; pick a window with at least 2 samples.",
+                f"segment({start}, {stop}) holds {spanning}",
                 owner=f"Recording {self.name!r}",
+                cli=f"the window holds {spanning}",
             )
         return self._rows(keep)
 
@@ -708,9 +719,11 @@ class Recording(eqx.Module):
         path = Path(path)
         if not path.is_file():
             reason = "is a directory" if path.is_dir() else "does not exist"
-            raise FileNotFoundError(
+            error = _FileNotFound(
                 f"Recording.load: {str(path)!r} {reason}; check the path."
             )
+            error.cli_message = f"{str(path)!r} {reason}; check the path."
+            raise error
         suffix = path.suffix.lower()
         if time is None:
             if input is not None and not isinstance(input, str | int):

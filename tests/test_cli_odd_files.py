@@ -459,6 +459,20 @@ def test_python_fixes_of_other_modules_are_said_in_cli_words(message):
     assert not any(word in said for word in PYTHON_WORDS), said
 
 
+def test_a_file_error_of_the_library_is_said_in_cli_words(tmp_path):
+    with pytest.raises(FileNotFoundError, match="Recording.load") as raised:
+        Recording.load(tmp_path / "gone.csv")
+    said = cli_words(raised.value)
+    assert "gone.csv" in said and not any(word in said for word in PYTHON_WORDS)
+
+
+def test_a_window_of_one_sample_is_said_in_cli_words(tmp_path, capsys):
+    path = _csv(tmp_path / "plain.csv", _sine_rows())
+    status = main(["fit", str(path), *QUICK, "--start", "0.1", "--end", "0.101"])
+    line = _check_line(capsys, status, "--start/--end", ("the window holds 1",))
+    assert "segment(" not in line
+
+
 def test_a_library_bug_keeps_its_traceback(tmp_path, monkeypatch):
     import jaxhyst._cli._options as options
 

@@ -82,6 +82,9 @@ def cli_words(error: BaseException) -> str:
             )
             text = f"{name}: {text}"
         return text
+    said = getattr(error, "cli_message", None)  # e.g. Recording.load's OSErrors
+    if isinstance(said, str):
+        return one_line(said)
     text = one_line(error)
     for pattern, replacement in PYTHON_FIXES:
         text = pattern.sub(replacement, text)
