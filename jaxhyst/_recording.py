@@ -10,6 +10,7 @@ import csv
 import math
 import os
 import re
+import zipfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -24,7 +25,50 @@ from ._inputs import AbstractInterpolation, InputPath
 
 class RecordingError(ValueError):
     """A recording (or the file it is read from) cannot be used as it is. The message
-    says what is wrong and how to fix it."""
+    says what is wrong and how to fix it.
+
+    Besides the message, the error carries what the command line needs to say it in
+    its own words: `owner`, the function or recording the message is prefixed with
+    ("Recording.load", "Recording 'x'"; None: none), `problem`, the message without
+    that prefix, and `cli`, the message as the command line says it where the fix
+    differs (flags instead of Python arguments; None: `problem` says it); `kind`
+    names a class of problem where a caller may act on it ("constant", "scale";
+    None: any other), and `recording` the name of the recording the error is about
+    where its `cli` does not name it (the command line names its file)."""
+
+    owner: str | None
+    problem: str
+    cli: str | None
+    kind: str | None
+    recording: str | None
+
+    def __init__(
+        self,
+        problem: str,
+        *,
+        owner: str | None = None,
+        cli: str | None = None,
+        kind: str | None = None,
+        recording: str | None = None,
+    ):
+        super().__init__(f"{owner}: {problem}" if owner else problem)
+        self.owner = owner
+        self.problem = problem
+        self.cli = cli
+        self.kind = kind
+        self.recording = recording
+
+    @property
+    def cli_message(self) -> str:
+        """The message in the command line's words."""
+        return self.problem if self.cli is None else self.cli
+
+
+class _FileNotFound(FileNotFoundError):
+    """A `FileNotFoundError` with the message in the command line's words as well
+    (`cli_message`, as a `RecordingError` has)."""
+
+    cli_message: str
 
 
 # The sample times may jitter around a uniform grid (CSV time stamps such as
@@ -38,18 +82,21 @@ _UNIT_SUFFIX = re.compile(r"^(.*?)\s*\[([^\[\]]*)\]$")
 def _as_column(label: str, values, where: str) -> np.ndarray:
     if np.iscomplexobj(values):
         raise RecordingError(
-            f"{where}: {label} is complex; pass its real part (np.real) or magnitude."
+            f"{label} is complex; pass its real part (np.real) or magnitude.",
+            owner=where,
         )
     try:
         column = np.array(values, dtype=np.float64)
     except (TypeError, ValueError):
         raise RecordingError(
-            f"{where}: {label} is not numeric; pass an array of numbers."
+            f"{label} is not numeric; pass an array of numbers.",
+            owner=where,
         ) from None
     if column.ndim != 1:
         raise RecordingError(
-            f"{where}: {label} must be one-dimensional, got shape {column.shape}; "
-            "pass a single channel, flattened with np.ravel."
+            f"{label} must be one-dimensional, got shape {column.shape}; "
+            "pass a single channel, flattened with np.ravel.",
+            owner=where,
         )
     return column
 
@@ -127,15 +174,17 @@ class Recording(eqx.Module):
         unknown = set(more_input_units) - set(more_inputs)
         if unknown:
             raise RecordingError(
-                f"{where}: more_input_units names {sorted(unknown)}, which are not "
+                f"more_input_units names {sorted(unknown)}, which are not "
                 f"among more_inputs {list(more_inputs)}; key the units by the same "
-                "names."
+                "names.",
+                owner=where,
             )
         clash = set(more_inputs) & {input_name, output_name}
         if clash:
             raise RecordingError(
-                f"{where}: further inputs {sorted(clash)} share a name with the input "
-                f"{input_name!r} or the output {output_name!r}; rename them."
+                f"further inputs {sorted(clash)} share a name with the input "
+                f"{input_name!r} or the output {output_name!r}; rename them.",
+                owner=where,
             )
         labels = (
             "time 't'",
@@ -156,39 +205,51 @@ class Recording(eqx.Module):
                 f"{label} has {count}" for label, count in zip(labels, lengths)
             )
             raise RecordingError(
-                f"{where}: length mismatch, {counted} samples; pass columns of equal "
-                "length, one value per time stamp."
+                f"length mismatch, {counted} samples; pass columns of equal "
+                "length, one value per time stamp.",
+                owner=where,
             )
         n = t.shape[0]
         if n < 2:
             raise RecordingError(
-                f"{where}: has {n} sample(s); a recording needs at least 2."
+                f"has {n} sample(s); a recording needs at least 2.",
+                owner=where,
             )
         for label, column in zip(labels, (t, u, y, *more), strict=True):
             bad = ~np.isfinite(column)
             if bad.any():
                 row = int(np.argmax(bad))
                 raise RecordingError(
-                    f"{where}: {label} has {int(bad.sum())} NaN/inf value(s), the "
+                    f"{label} has {int(bad.sum())} NaN/inf value(s), the "
                     f"first at row {row} (t = {t[row]:.6g}); drop those rows or "
-                    "interpolate over them before building the recording."
+                    "interpolate over them before building the recording.",
+                    owner=where,
+                    cli=f"{label} has {int(bad.sum())} NaN/inf value(s), the first at "
+                    f"row {row} (t = {t[row]:.6g}); drop those rows from the file, or "
+                    "interpolate over them.",
                 )
         steps = np.diff(t)
         if np.any(steps <= 0):
             i = int(np.argmax(steps <= 0)) + 1
             raise RecordingError(
-                f"{where}: time is not strictly increasing at row {i} "
+                f"time is not strictly increasing at row {i} "
                 f"(t[{i}] = {t[i]:.9g} <= t[{i - 1}] = {t[i - 1]:.9g}); sort the "
-                "samples by time and drop duplicated time stamps."
+                "samples by time and drop duplicated time stamps.",
+                owner=where,
             )
         mean_step = (t[-1] - t[0]) / (n - 1)
         if np.max(np.abs(steps - mean_step)) > _UNIFORM_RTOL * mean_step:
             if not resample:
                 raise RecordingError(
-                    f"{where}: time is not uniformly sampled (step varies from "
+                    f"time is not uniformly sampled (step varies from "
                     f"{steps.min():.6g} to {steps.max():.6g}); pass resample=True to "
                     "interpolate linearly onto a uniform grid with the mean step, or "
-                    "resample it yourself."
+                    "resample it yourself.",
+                    owner=where,
+                    cli=f"time is not uniformly sampled (step varies from "
+                    f"{steps.min():.6g} to {steps.max():.6g}); resample the record onto "
+                    "a uniform grid first (the command line reads uniformly sampled "
+                    "records), or pick --start/--end around a uniform part.",
                 )
             grid = np.asarray(t[0] + mean_step * np.arange(n), dtype=np.float64)
             grid[-1] = t[-1]
@@ -198,9 +259,13 @@ class Recording(eqx.Module):
             t = grid
         if np.ptp(u) == 0:
             raise RecordingError(
-                f"{where}: input {input_name!r} is constant ({u[0]:.6g}) over the "
+                f"input {input_name!r} is constant ({u[0]:.6g}) over the "
                 "whole record, so nothing excites the hysteresis; pick a segment "
-                "where the input varies, or check the column selection."
+                "where the input varies, or check the column selection.",
+                owner=where,
+                cli=f"input {input_name!r} is constant ({u[0]:.6g}) over the whole "
+                "record, so nothing excites the hysteresis; check --input, or pick "
+                "--start/--end where the input varies.",
             )
         stacked = np.stack(more) if more else np.zeros((0, n), np.float64)
         for column in (t, u, y, stacked):
@@ -246,19 +311,22 @@ class Recording(eqx.Module):
             pseudo_dt = float(pseudo_dt)
         except (TypeError, ValueError):
             raise RecordingError(
-                f"{where}: pseudo_dt must be a number, got {pseudo_dt!r}."
+                f"pseudo_dt must be a number, got {pseudo_dt!r}.",
+                owner=where,
             ) from None
         if not (math.isfinite(pseudo_dt) and pseudo_dt > 0):
             raise RecordingError(
-                f"{where}: pseudo_dt must be positive and finite, got {pseudo_dt}."
+                f"pseudo_dt must be positive and finite, got {pseudo_dt}.",
+                owner=where,
             )
         u = _as_column(f"input {input_name!r}", displacement, where)
         y = _as_column(f"output {output_name!r}", force, where)
         if u.shape != y.shape:
             raise RecordingError(
-                f"{where}: {input_name} has {u.shape[0]} samples but {output_name} "
+                f"{input_name} has {u.shape[0]} samples but {output_name} "
                 f"has {y.shape[0]}; pass one {output_name} value per {input_name} "
-                "value (trim the longer one, or check the files)."
+                "value (trim the longer one, or check the files).",
+                owner=where,
             )
         return cls(
             pseudo_dt * np.arange(u.shape[0], dtype=np.float64),
@@ -377,8 +445,9 @@ class Recording(eqx.Module):
         `RecordingError` if the name is taken or the length differs."""
         if name in (self.input_name, self.output_name, *self.more_input_names):
             raise RecordingError(
-                f"Recording.with_input: {self.name!r} already has a column named "
-                f"{name!r}; pick another name."
+                f"{self.name!r} already has a column named "
+                f"{name!r}; pick another name.",
+                owner="Recording.with_input",
             )
         column = np.asarray(values, dtype=np.float64)
         if column.ndim == 0:
@@ -412,9 +481,10 @@ class Recording(eqx.Module):
         for other in recordings[1:]:
             if other.more_input_names != first.more_input_names:
                 raise RecordingError(
-                    f"Recording.join: {other.name!r} has inputs {other.input_names}, "
+                    f"{other.name!r} has inputs {other.input_names}, "
                     f"{first.name!r} has {first.input_names}; recordings read together "
-                    "need the same further inputs."
+                    "need the same further inputs.",
+                    owner="Recording.join",
                 )
             units = (
                 other.input_unit,
@@ -424,16 +494,18 @@ class Recording(eqx.Module):
             )
             if units != expected:
                 raise RecordingError(
-                    f"Recording.join: {other.name!r} has units (input, output, time) "
+                    f"{other.name!r} has units (input, output, time) "
                     f"{units}, {first.name!r} has {expected}; convert them to one set "
-                    "of units."
+                    "of units.",
+                    owner="Recording.join",
                 )
             if abs(other.dt - first.dt) > _UNIFORM_RTOL * first.dt:
                 raise RecordingError(
-                    f"Recording.join: {other.name!r} is sampled at "
+                    f"{other.name!r} is sampled at "
                     f"{other.sample_rate:.6g} per {other.time_unit}, {first.name!r} "
                     f"at {first.sample_rate:.6g}; recordings read together need one "
-                    "sample rate: resample them (Recording.resample)."
+                    "sample rate: resample them (Recording.resample).",
+                    owner="Recording.join",
                 )
         if len(recordings) == 1:
             return first
@@ -469,16 +541,21 @@ class Recording(eqx.Module):
         hi = self.t[-1] if stop is None else float(stop)
         if not lo < hi:
             raise RecordingError(
-                f"Recording {self.name!r}: segment({start}, {stop}) is empty; pass "
-                "start < stop."
+                f"segment({start}, {stop}) is empty; pass start < stop.",
+                owner=f"Recording {self.name!r}",
             )
         keep = (self.t >= lo - tol) & (self.t <= hi + tol)
         count = int(keep.sum())
         if count < 2:
+            spanning = (
+                f"{count} sample(s) of a record spanning [{self.t[0]:.6g}, "
+                f"{self.t[-1]:.6g}] {self.time_unit}; pick a window with at least 2 "
+                "samples."
+            )
             raise RecordingError(
-                f"Recording {self.name!r}: segment({start}, {stop}) holds {count} "
-                f"sample(s) of a record spanning [{self.t[0]:.6g}, {self.t[-1]:.6g}] "
-                f"{self.time_unit}; pick a window with at least 2 samples."
+                f"segment({start}, {stop}) holds {spanning}",
+                owner=f"Recording {self.name!r}",
+                cli=f"the window holds {spanning}",
             )
         return self._rows(keep)
 
@@ -487,16 +564,17 @@ class Recording(eqx.Module):
         second), e.g. for estimation/validation. The parts do not overlap."""
         if not 0 < fraction < 1:
             raise RecordingError(
-                f"Recording {self.name!r}: split fraction must lie strictly between "
-                f"0 and 1, got {fraction}."
+                f"split fraction must lie strictly between 0 and 1, got {fraction}.",
+                owner=f"Recording {self.name!r}",
             )
         n = self.num_samples
         k = int(round(fraction * n))
         if k < 2 or n - k < 2:
             raise RecordingError(
-                f"Recording {self.name!r}: split({fraction}) of {n} samples leaves "
+                f"split({fraction}) of {n} samples leaves "
                 f"{k} and {n - k} samples; each part needs at least 2, so pick a "
-                "fraction nearer 0.5."
+                "fraction nearer 0.5.",
+                owner=f"Recording {self.name!r}",
             )
         return self._rows(slice(None, k)), self._rows(slice(k, None))
 
@@ -511,18 +589,20 @@ class Recording(eqx.Module):
             dt = float(dt)
         except (TypeError, ValueError):
             raise RecordingError(
-                f"Recording {self.name!r}: resample dt must be a number, got {dt!r}."
+                f"resample dt must be a number, got {dt!r}.",
+                owner=f"Recording {self.name!r}",
             ) from None
         if not (math.isfinite(dt) and dt > 0):
             raise RecordingError(
-                f"Recording {self.name!r}: resample dt must be positive and "
-                f"finite, got {dt}."
+                f"resample dt must be positive and finite, got {dt}.",
+                owner=f"Recording {self.name!r}",
             )
         count = int(math.floor(self.duration / dt * (1 + 1e-12) + 1e-9)) + 1
         if count < 2:
             raise RecordingError(
-                f"Recording {self.name!r}: resample({dt}) leaves {count} sample(s) "
-                f"in a record of duration {self.duration:.6g}; pass a smaller dt."
+                f"resample({dt}) leaves {count} sample(s) "
+                f"in a record of duration {self.duration:.6g}; pass a smaller dt.",
+                owner=f"Recording {self.name!r}",
             )
         grid = self.t[0] + dt * np.arange(count)
         grid = np.minimum(grid, self.t[-1])
@@ -548,14 +628,15 @@ class Recording(eqx.Module):
             tolerance = float(tolerance)
         except (TypeError, ValueError):
             raise RecordingError(
-                f"Recording {self.name!r}: reversals tolerance must be a number, "
-                f"got {tolerance!r}."
+                f"reversals tolerance must be a number, got {tolerance!r}.",
+                owner=f"Recording {self.name!r}",
             ) from None
         if not 0 <= tolerance < 1:
             raise RecordingError(
-                f"Recording {self.name!r}: reversals tolerance must lie in [0, 1) "
+                f"reversals tolerance must lie in [0, 1) "
                 f"(a fraction of the input's range), got {tolerance}; 0.01 ignores "
-                "wiggles below 1 % of the range."
+                "wiggles below 1 % of the range.",
+                owner=f"Recording {self.name!r}",
             )
         u = self.u
         threshold = tolerance * float(np.ptp(u))
@@ -592,7 +673,11 @@ class Recording(eqx.Module):
         if self.num_samples < minimum:
             raise RecordingError(
                 f"Recording {self.name!r} has {self.num_samples} samples; {what} "
-                f"needs at least {minimum}; use a longer (or finer) recording."
+                f"needs at least {minimum}; use a longer (or finer) recording.",
+                cli=f"has {self.num_samples} samples; {what} needs at least "
+                f"{minimum}; pass a longer recording (or one sampled at a higher "
+                "rate).",
+                recording=self.name,
             )
 
     # ------------------------------------------------------------------------- I/O
@@ -634,15 +719,18 @@ class Recording(eqx.Module):
         path = Path(path)
         if not path.is_file():
             reason = "is a directory" if path.is_dir() else "does not exist"
-            raise FileNotFoundError(
+            error = _FileNotFound(
                 f"Recording.load: {str(path)!r} {reason}; check the path."
             )
+            error.cli_message = f"{str(path)!r} {reason}; check the path."
+            raise error
         suffix = path.suffix.lower()
         if time is None:
             if input is not None and not isinstance(input, str | int):
                 raise RecordingError(
-                    "Recording.load: time=None reads two columns (displacement, "
-                    f"force); pick one input column, got input={input!r}."
+                    "time=None reads two columns (displacement, "
+                    f"force); pick one input column, got input={input!r}.",
+                    owner="Recording.load",
                 )
             return cls._load_quasi_static(path, input, output, bool(header), name)
         if isinstance(input, str | int) or input is None:
@@ -651,14 +739,15 @@ class Recording(eqx.Module):
             inputs = list(input)
             if not inputs:
                 raise RecordingError(
-                    "Recording.load: input=[] selects no input; name at least one "
-                    "column."
+                    "input=[] selects no input; name at least one column.",
+                    owner="Recording.load",
                 )
         header = True if header is None else header
         if suffix not in (".csv", ".txt", ".npz", ".mat"):
             raise RecordingError(
-                f"Recording.load: unknown file type {path.suffix!r} of {str(path)!r}; "
-                "use .csv, .txt, .npz or .mat."
+                f"unknown file type {path.suffix!r} of {str(path)!r}; "
+                "use .csv, .txt, .npz or .mat.",
+                owner="Recording.load",
             )
         saved = _saved_inputs(path, suffix) if None in (input, output) else ()
         if inputs is None:
@@ -707,7 +796,9 @@ class Recording(eqx.Module):
                 **options,
             )
         except RecordingError as error:
-            raise RecordingError(f"{path}: {error}") from None
+            raise RecordingError(
+                f"{path}: {error}", cli=f"{str(path)!r}: {error.cli_message}"
+            ) from None
 
     @classmethod
     def _load_quasi_static(
@@ -720,9 +811,14 @@ class Recording(eqx.Module):
     ) -> "Recording":
         if path.suffix.lower() not in (".csv", ".txt"):
             raise RecordingError(
-                f"Recording.load: time=None reads two-column .csv/.txt files, not "
+                f"time=None reads two-column .csv/.txt files, not "
                 f"{path.suffix!r} ({str(path)!r}); load the arrays yourself and build "
-                "Recording.quasi_static(displacement, force)."
+                "Recording.quasi_static(displacement, force).",
+                owner="Recording.load",
+                cli=f"--no-time reads two-column .csv/.txt files, not "
+                f"{path.suffix!r} ({str(path)!r}); export displacement and force as "
+                "a two-column .csv, or drop --no-time and name the arrays with "
+                "--time/--input/--output.",
             )
         selectors = (0 if input is None else input, 1 if output is None else output)
         columns, units = _read_text(path, selectors, header, two_columns=True)
@@ -744,7 +840,9 @@ class Recording(eqx.Module):
                 **meta,
             )
         except RecordingError as error:
-            raise RecordingError(f"{path}: {error}") from None
+            raise RecordingError(
+                f"{path}: {error}", cli=f"{str(path)!r}: {error.cli_message}"
+            ) from None
 
     def save(self, path: str | os.PathLike, *, overwrite: bool = False) -> None:
         """Write to `.csv` (header "t,<input_name>,<output_name>", units in
@@ -758,8 +856,9 @@ class Recording(eqx.Module):
         suffix = path.suffix.lower()
         if suffix not in (".csv", ".npz", ".mat"):
             raise RecordingError(
-                f"Recording.save: unknown file type {path.suffix!r} of "
-                f"{str(path)!r}; use .csv, .npz or .mat."
+                f"unknown file type {path.suffix!r} of "
+                f"{str(path)!r}; use .csv, .npz or .mat.",
+                owner="Recording.save",
             )
         refuse_existing(path, overwrite=overwrite, refusal=Refusal("Recording.save"))
         names = ("t", *self.input_names, self.output_name)
@@ -768,8 +867,9 @@ class Recording(eqx.Module):
             n.startswith(_META_PREFIX) for n in names
         ):
             raise RecordingError(
-                f"Recording.save: column names {names} must be distinct and must not "
-                f"start with {_META_PREFIX!r}; rename the input/output first."
+                f"column names {names} must be distinct and must not "
+                f"start with {_META_PREFIX!r}; rename the input/output first.",
+                owner="Recording.save",
             )
         if suffix == ".csv":
             units = (
@@ -799,9 +899,10 @@ class Recording(eqx.Module):
         if suffix == ".npz":
             if {"file", "allow_pickle"} & set(names):
                 raise RecordingError(
-                    f"Recording.save: column names {names} clash with np.savez "
+                    f"column names {names} clash with np.savez "
                     "arguments ('file', 'allow_pickle'); save as .mat or .csv, or "
-                    "rename the input/output."
+                    "rename the input/output.",
+                    owner="Recording.save",
                 )
             payload: dict[str, Any] = {
                 **arrays,
@@ -815,9 +916,10 @@ class Recording(eqx.Module):
             for n in names:
                 if not _MAT_NAME.fullmatch(n):
                     raise RecordingError(
-                        f"Recording.save: {n!r} is not a valid MAT variable name "
+                        f"{n!r} is not a valid MAT variable name "
                         "(letters, digits, underscores, starting with a letter); "
-                        "save as .npz or .csv, or rename the input/output."
+                        "save as .npz or .csv, or rename the input/output.",
+                        owner="Recording.save",
                     )
             scipy.io.savemat(path, {**arrays, **meta}, appendmat=False)
 
@@ -842,15 +944,15 @@ def _read_text(
     """The selected columns (time, the inputs, output; or input, output when
     `two_columns`, which also requires exactly two equally long columns), and the
     unit each one's header names (None where it names none)."""
-    with open(path, encoding="utf-8-sig", newline="") as file:
-        lines = [
-            (number, line)
-            for number, line in enumerate(file.read().splitlines(), start=1)
-            if line.strip() and not line.lstrip().startswith("#")
-        ]
+    lines = [
+        (number, line)
+        for number, line in enumerate(_decoded(path).splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
     if not lines:
         raise RecordingError(
-            f"Recording.load: {str(path)!r} is empty; pass a file with data rows."
+            f"{str(path)!r} is empty; pass a file with data rows.",
+            owner="Recording.load",
         )
     first = lines[0][1]
     delimiter = next((d for d in (",", ";", "\t") if d in first), None)
@@ -865,7 +967,8 @@ def _read_text(
         rows, numbers = rows[1:], numbers[1:]
         if not rows:
             raise RecordingError(
-                f"Recording.load: {str(path)!r} has a header row but no data rows."
+                f"{str(path)!r} has a header row but no data rows.",
+                owner="Recording.load",
             )
     width = len(names) if names is not None else len(rows[0])
     if two_columns:
@@ -887,19 +990,63 @@ def _read_text(
         for column, index, label in zip(columns, indices, labels, strict=True):
             if index >= len(row):
                 raise RecordingError(
-                    f"Recording.load: {str(path)!r} line {number} has {len(row)} "
-                    f"cells, so {label} is missing; fix or drop that line."
+                    f"{str(path)!r} line {number} has {len(row)} "
+                    f"cells, so {label} is missing; fix or drop that line.",
+                    owner="Recording.load",
                 )
             cell = row[index].strip()
             try:
                 column[r] = float(cell)
             except ValueError:
                 what = "is empty" if not cell else f"holds {cell!r}, not a number"
+                if re.fullmatch(r"[-+]?\d*,\d+", cell):
+                    what += " (a decimal comma: write numbers with a decimal point)"
                 raise RecordingError(
-                    f"Recording.load: {str(path)!r} line {number}, {label} {what}; "
-                    "fix or drop that line, or check the column selection."
+                    f"{str(path)!r} line {number}, {label} {what}; "
+                    "fix or drop that line, or check the column selection.",
+                    owner="Recording.load",
                 ) from None
     return columns, units
+
+
+# Control characters that do not occur in a text file (all but tab, newline, form
+# feed and carriage return).
+_BINARY_BYTES = bytes(set(range(32)) - {9, 10, 12, 13})
+
+
+def _decoded(path: Path) -> str:
+    """The text of the file at `path`: UTF-8 (with or without a byte-order mark),
+    UTF-16 or UTF-32 with a byte-order mark, else Latin-1 (every byte a character,
+    as Windows tools write "\u00b5m"). A file with control bytes (a binary file, or
+    UTF-16 without a byte-order mark) raises `RecordingError`."""
+    data = path.read_bytes()
+    for mark, encoding in (
+        (b"\xff\xfe\x00\x00", "utf-32"),
+        (b"\x00\x00\xfe\xff", "utf-32"),
+        (b"\xff\xfe", "utf-16"),
+        (b"\xfe\xff", "utf-16"),
+    ):
+        if data.startswith(mark):
+            try:
+                return data.decode(encoding)
+            except UnicodeDecodeError:
+                break
+    else:
+        where = next((i for i, b in enumerate(data) if b in _BINARY_BYTES), None)
+        if where is None:
+            try:
+                return data.decode("utf-8-sig")
+            except UnicodeDecodeError:
+                return data.decode("latin-1")
+    fix = (
+        "pass a text file (comma-, semicolon-, tab- or whitespace-separated "
+        "numbers, saved as UTF-8), or give a NumPy or MATLAB file its .npz or .mat "
+        "suffix"
+    )
+    raise RecordingError(
+        f"{str(path)!r} is not a text file (it holds binary bytes); {fix}.",
+        owner="Recording.load",
+    )
 
 
 def _roles(count: int, two_columns: bool = False) -> list[str]:
@@ -917,8 +1064,7 @@ _INPUTS_MARK = "# jaxhyst inputs: "
 def _saved_inputs(path: Path, suffix: str) -> tuple[str, ...]:
     """The inputs `save` wrote to `path` (empty if it did not mark them)."""
     if suffix in (".csv", ".txt"):
-        with open(path, encoding="utf-8-sig") as file:
-            first = file.readline().strip()
+        first = next(iter(_decoded(path).splitlines()), "").strip()
         if first.startswith(_INPUTS_MARK):
             return tuple(n.strip() for n in first[len(_INPUTS_MARK) :].split(","))
         return ()
@@ -932,9 +1078,8 @@ def _saved_output(path: Path, suffix: str, inputs: tuple[str, ...]) -> str | Non
     """The output column of a file `save` wrote with several `inputs` (the one
     column that is neither the time "t" nor an input), else None."""
     if suffix in (".csv", ".txt"):
-        with open(path, encoding="utf-8-sig", newline="") as file:
-            file.readline()
-            head = next(csv.reader([file.readline()]), [])
+        lines = _decoded(path).splitlines()
+        head = next(csv.reader(lines[1:2]), [])
         names = [_split_unit(cell)[0] for cell in head]
     else:
         names = [
@@ -950,21 +1095,28 @@ def _check_two_columns(
     path: Path, rows: list[list[str]], numbers: list[int], width: int
 ) -> None:
     """Refuse a file read without time unless it has two equally long columns."""
-    where = f"Recording.load: {str(path)!r}"
+    where = repr(str(path))
+    owner = "Recording.load"
     wide = next(
         ((n, len(r)) for r, n in zip(rows, numbers, strict=True) if len(r) > 2), None
     )
     if width > 2 or wide is not None:
         number, cells = wide if wide is not None else (numbers[0], width)
-        raise RecordingError(
+        problem = (
             f"{where} line {number} has {cells} columns; without a time column the "
-            "file must have exactly two (displacement, force): drop the others, or "
-            "read it with its time column."
+            "file must have exactly two (displacement, force)"
+        )
+        raise RecordingError(
+            f"{problem}: drop the others, or read it with its time column.",
+            owner=owner,
+            cli=f"{problem}: drop the others, or drop --no-time and pick the columns "
+            "with --time/--input/--output (with --no-header, by 0-based index).",
         )
     if max(len(r) for r in rows) < 2:
         raise RecordingError(
             f"{where} has one column; without a time column the file must have "
-            "exactly two (displacement, force), one pair per line."
+            "exactly two (displacement, force), one pair per line.",
+            owner=owner,
         )
     counts = [sum(len(r) > i and bool(r[i].strip()) for r in rows) for i in (0, 1)]
     if counts[0] != counts[1]:
@@ -976,7 +1128,8 @@ def _check_two_columns(
         raise RecordingError(
             f"{where} has two columns of different lengths ({counts[0]} and "
             f"{counts[1]} values, the first short row at line {short}); pass one "
-            "force value per displacement value, on the same line."
+            "force value per displacement value, on the same line.",
+            owner=owner,
         )
 
 
@@ -994,9 +1147,18 @@ def _column_index(
         )
     if isinstance(selector, int):
         if not 0 <= selector < width:
+            columns = f"{str(path)!r} has {width} columns (indices 0 to {width - 1})"
             raise RecordingError(
-                f"Recording.load: {role}={selector} is out of range; "
-                f"{str(path)!r} has {width} columns (indices 0 to {width - 1})."
+                f"{role}={selector} is out of range; {columns}.",
+                owner="Recording.load",
+                cli=f"--{role} {selector} is out of range: {columns}; pick one of "
+                "them"
+                + (
+                    " (a file of displacement and force without time is read with "
+                    "--no-time)."
+                    if width == 2
+                    else "."
+                ),
             )
         unit = None
         if names is not None:
@@ -1004,9 +1166,13 @@ def _column_index(
         return selector, unit
     if names is None:
         raise RecordingError(
-            f"Recording.load: {role}={selector!r} selects a column by name, but "
+            f"{role}={selector!r} selects a column by name, but "
             "header=False; pass integer column indices (e.g. time=0, input=1, "
-            "output=2) or header=True."
+            "output=2) or header=True.",
+            owner="Recording.load",
+            cli=f"--{role} {selector!r} names a column, but with --no-header columns "
+            f"are picked by 0-based index; pass e.g. --{role} "
+            f"{('time', 'input', 'output').index(role)}, or drop --no-header.",
         )
     if selector in names:
         return names.index(selector), None
@@ -1014,15 +1180,43 @@ def _column_index(
         bare, unit = _split_unit(cell)
         if bare == selector:
             return index, unit
-    hint = ""
-    if all(_is_number(cell) for cell in names if cell):
-        hint = (
-            "; the first row looks numeric, so the file may have no header: pass "
+    where = f"{str(path)!r} has no column {selector!r} for {role}"
+    available = f"available columns: {', '.join(map(repr, names))}"
+    if not all(_is_number(cell) for cell in names if cell):
+        if width == 2 and role == "time":
+            fix = (
+                "name the time column with --time; a file of displacement and force "
+                "without time is read with --no-time, without its header row"
+            )
+        else:
+            fix = f"pick one with --{role}"
+        raise RecordingError(
+            f"{where}; {available}.",
+            owner="Recording.load",
+            cli=f"{where}; {available}; {fix}.",
+        )
+    # The "names" are the first row's numbers: the file has no header.
+    first = ", ".join(names)
+    if width == 2:
+        python_fix = (
+            "time=None reads displacement and force without time, or pass "
             "header=False and integer column indices"
         )
+        cli_fix = (
+            "its two columns read as displacement and force (no time) with --no-time"
+        )
+    else:
+        python_fix = "pass header=False and integer column indices"
+        cli_fix = (
+            "pass --no-header (columns by 0-based index: by default --time 0 --input "
+            "1 --output 2)"
+        )
+    headless = f"its first row ({first}) holds numbers, so it seems to have no header"
     raise RecordingError(
-        f"Recording.load: {str(path)!r} has no column {selector!r} for {role}; "
-        f"available columns: {', '.join(map(repr, names))}{hint}."
+        f"{where}; {available}; the first row looks numeric, so the file may have no "
+        f"header: {python_fix}.",
+        owner="Recording.load",
+        cli=f"{where}: {headless}; {cli_fix}.",
     )
 
 
@@ -1038,12 +1232,20 @@ def _stored_arrays(path: Path, kind: str) -> dict[str, Any]:
     """Every array of a `.npz` (`kind` "npz") or `.mat` file, by name."""
     if kind == "npz":
         try:
-            with np.load(path, allow_pickle=False) as data:
+            # Opened here, so that a file np.load cannot read is closed as well.
+            with (
+                open(path, "rb") as handle,
+                np.load(handle, allow_pickle=False) as data,
+            ):
                 arrays = {key: data[key] for key in data.files}
-        except (OSError, ValueError) as error:
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile):
             raise RecordingError(
-                f"Recording.load: cannot read {str(path)!r} as .npz ({error}); pass "
-                "a file written by np.savez."
+                f"{str(path)!r} is not a NumPy .npz archive, or it is truncated; "
+                "pass a whole file written by np.savez.",
+                owner="Recording.load",
+                cli=f"{str(path)!r} is not a NumPy .npz archive, or it is truncated; "
+                "pass a whole .npz file (as numpy.savez writes it), or the data as "
+                ".csv.",
             ) from None
     else:
         import scipy.io
@@ -1056,17 +1258,25 @@ def _stored_arrays(path: Path, kind: str) -> dict[str, Any]:
             }
         except NotImplementedError:
             raise RecordingError(
-                f"Recording.load: {str(path)!r} is a MATLAB v7.3 (HDF5) file; save "
+                f"{str(path)!r} is a MATLAB v7.3 (HDF5) file; save "
                 "it with '-v7' in MATLAB or read it with h5py and build "
-                "Recording(t, u, y)."
+                "Recording(t, u, y).",
+                owner="Recording.load",
+                cli=f"{str(path)!r} is a MATLAB v7.3 (HDF5) file; save it with '-v7' "
+                "in MATLAB, or export the data as .csv.",
             ) from None
-        except (OSError, ValueError) as error:
+        except (OSError, ValueError, EOFError, scipy.io.matlab.MatReadError):
             raise RecordingError(
-                f"Recording.load: cannot read {str(path)!r} as .mat ({error})."
+                f"{str(path)!r} is not a MATLAB .mat file, or it is truncated; pass a "
+                "whole file saved by MATLAB's save (or scipy.io.savemat).",
+                owner="Recording.load",
+                cli=f"{str(path)!r} is not a MATLAB .mat file, or it is truncated; "
+                "pass a whole .mat file (MATLAB's save -v7), or the data as .csv.",
             ) from None
     if not arrays:
         raise RecordingError(
-            f"Recording.load: {str(path)!r} is empty; it holds no arrays."
+            f"{str(path)!r} is empty; it holds no arrays.",
+            owner="Recording.load",
         )
     return arrays
 
@@ -1106,25 +1316,33 @@ def _read_arrays(
     for role, selector in zip(roles, selectors, strict=True):
         if not isinstance(selector, str):
             raise RecordingError(
-                f"Recording.load: select {kind} arrays by key name, got "
+                f"select {kind} arrays by key name, got "
                 f"{role}={selector!r}; available keys: "
-                f"{', '.join(map(repr, arrays))}."
+                f"{', '.join(map(repr, arrays))}.",
+                owner="Recording.load",
+                cli=f"--{role} {selector}: the arrays of {str(path)!r} are picked by "
+                f"name, not index; available: {', '.join(map(repr, arrays))}.",
             )
         if selector not in arrays:
             raise RecordingError(
-                f"Recording.load: {str(path)!r} has no array {selector!r} for {role}; "
-                f"available keys: {', '.join(map(repr, arrays))}."
+                f"{str(path)!r} has no array {selector!r} for {role}; "
+                f"available keys: {', '.join(map(repr, arrays))}.",
+                owner="Recording.load",
+                cli=f"{str(path)!r} has no array {selector!r} for {role}; available: "
+                f"{', '.join(map(repr, arrays))}; pick one with --{role}.",
             )
         value = np.asarray(arrays[selector])
         if value.dtype.kind not in "biuf":
             raise RecordingError(
-                f"Recording.load: array {selector!r} in {str(path)!r} has dtype "
-                f"{value.dtype}, not real numbers; select a numeric array."
+                f"array {selector!r} in {str(path)!r} has dtype "
+                f"{value.dtype}, not real numbers; select a numeric array.",
+                owner="Recording.load",
             )
         if sum(d > 1 for d in value.shape) > 1:
             raise RecordingError(
-                f"Recording.load: array {selector!r} in {str(path)!r} has shape "
-                f"{value.shape}; pass a single channel of shape (N,), (1, N) or (N, 1)."
+                f"array {selector!r} in {str(path)!r} has shape "
+                f"{value.shape}; pass a single channel of shape (N,), (1, N) or (N, 1).",
+                owner="Recording.load",
             )
         columns.append(value.ravel())
         if role == "time":

@@ -628,7 +628,7 @@ def test_bad_windows_are_one_line_errors(
     line = _one_error_line(capsys, quiet=True)
     assert expected in line
     if "past the end" in expected or "before the start" in expected:
-        assert "the record runs from t = 0 to 8 s" in line
+        assert f"the record {str(short_recording)!r} runs from t = 0 to 8 s" in line
     assert not out.exists()
 
 

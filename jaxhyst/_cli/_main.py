@@ -15,6 +15,7 @@ import jax
 from .._cache import enable_compilation_cache
 from .._recording import RecordingError
 from ._options import PROG, one_line
+from ._words import SOURCES, cli_words
 
 
 # The commands in the order `jaxhyst --help` lists them; each is the module
@@ -105,6 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     jax.config.update("jax_enable_x64", True)
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
+    SOURCES.clear()
     try:
         args = parser.parse_args(argv)
         return args.run(args)
@@ -117,12 +119,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as stop:  # --help and --version
         return stop.code if isinstance(stop.code, int) else 0
     except (RecordingError, ImportError, OSError) as error:
-        print(f"{PROG}: error: {one_line(error)}", file=sys.stderr)
+        print(f"{PROG}: error: {cli_words(error)}", file=sys.stderr)
         return 2
     except (ValueError, TypeError) as error:
         if not raised_by_jaxhyst(error):
             raise  # a bug (in jaxhyst's use of a library, or in one): its traceback
-        print(f"{PROG}: error: {one_line(error)}", file=sys.stderr)
+        print(f"{PROG}: error: {cli_words(error)}", file=sys.stderr)
         return 2
 
 

@@ -8,17 +8,14 @@ import sys
 from pathlib import Path
 
 from .._model_files import LoadedModel, load_model
+from .._models.base import signal_scales
 from .._recording import Recording, RecordingError
 from .._swarm import MPSO
 from ._choices import PRESETS
+from ._words import SOURCES, in_file, one_line
 
 
 PROG = "jaxhyst"
-
-
-def one_line(error: BaseException) -> str:
-    text = " ".join(str(error).split())
-    return text or type(error).__name__
 
 
 def warn(message: str) -> None:
@@ -176,11 +173,16 @@ def load_recording(args: argparse.Namespace, path: str | None = None) -> Recordi
             f"--start {start:g} --end {end:g}: the window is empty; pass --start "
             "below --end."
         )
-    recording = _read_recording(args, args.recording if path is None else path)
+    if path is None:
+        path = str(args.recording)
+    recording = _checked(_read_recording(args, path), path)
+    SOURCES[recording.name] = path
     if start is None and end is None:
         return recording
     first, last = float(recording.t[0]), float(recording.t[-1])
-    span = f"the record runs from t = {first:g} to {last:g} {recording.time_unit}"
+    span = (
+        f"the record {path!r} runs from t = {first:g} to {last:g} {recording.time_unit}"
+    )
     if start is not None and start >= last:
         raise ValueError(
             f"--start {start:g} is at or past the end of the record ({span}); pick "
@@ -192,9 +194,23 @@ def load_recording(args: argparse.Namespace, path: str | None = None) -> Recordi
             f"--end above {first:g}."
         )
     try:
-        return recording.segment(start, end)
+        part = recording.segment(start, end)
     except RecordingError as error:
-        raise ValueError(f"--start/--end: {one_line(error)}") from None
+        raise ValueError(f"--start/--end: {one_line(error.cli_message)}") from None
+    return _checked(part, path, window=True)
+
+
+def _checked(recording: Recording, path: str, *, window: bool = False) -> Recording:
+    """`recording`, after checking that its input and output can be fitted or
+    compared with a model: not constant, and of magnitudes a fit computes with
+    (`signal_scales`). Errors name the file (and the window, `window`)."""
+    span = "the window --start/--end" if window else "the whole record"
+    for values, role in ((recording.u, "input"), (recording.y, "output")):
+        try:
+            signal_scales(values, role, span=span)
+        except RecordingError as error:
+            raise in_file(path, error) from None
+    return recording
 
 
 def window(args: argparse.Namespace, recording: Recording) -> dict[str, object]:
@@ -221,6 +237,12 @@ def window_line(args: argparse.Namespace, recording: Recording) -> str | None:
 
 
 def _read_recording(args: argparse.Namespace, path: str) -> Recording:
+    if not Path(path).is_file():
+        what = "is a folder" if Path(path).is_dir() else "does not exist"
+        raise FileNotFoundError(
+            f"RECORDING {path!r} {what}; pass a recording file (.csv, .txt, .npz or "
+            ".mat)."
+        )
     if args.no_time:
         if args.time is not None:
             raise ValueError(

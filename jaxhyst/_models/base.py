@@ -19,7 +19,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._inputs import InputPath
-from .._recording import Recording
+from .._recording import Recording, RecordingError
 from .._smoothing import AbstractSmoothing, ExactSign
 
 
@@ -69,6 +69,59 @@ DriveT = TypeVar("DriveT", bound=AbstractDrive)
 SampleUpdate = Callable[[Array, Array, Array], Array]
 
 
+# The magnitudes a fit computes with: squared errors of signals beyond this range
+# overflow (or underflow) in double precision, so their peaks must lie within it.
+SCALE_RANGE = (1e-150, 1e150)
+
+
+def signal_scales(
+    values: Float[ArrayLike, " n"],
+    role: str,
+    owner: str = "DataScales",
+    *,
+    span: str = "the whole record",
+    constant: bool = True,
+) -> tuple[float, float]:
+    """The peak max|x| and the rms of a recorded input or output (`role`, over
+    `span`, as messages say), checked first so that neither overflows nor
+    underflows: its peak is measured, not its square (a signal that is zero
+    throughout: 0 and 0). Raises `RecordingError`
+    (its `cli` in the command line's words, its `kind` "constant" or "scale") for a
+    constant signal (unless not `constant`: `DataScales` says that), and for one
+    whose peak is non-zero and outside `SCALE_RANGE`."""
+    x = np.asarray(values, dtype=np.float64)
+    peak = float(np.max(np.abs(x)))
+    option = "--input" if role == "input" else "--output"
+    if constant and float(np.ptp(x)) == 0:
+        problem = (
+            f"the {role} is constant ({float(x[0]):.6g}) over {span}; a constant "
+            "signal cannot identify a model"
+        )
+        raise RecordingError(
+            f"{problem}; check the column selection.",
+            owner=owner,
+            cli=f"{problem}; check {option}, or pick --start/--end where it varies.",
+            kind="constant",
+        )
+    if peak == 0:
+        return 0.0, 0.0
+    low, high = SCALE_RANGE
+    if not low <= peak <= high:
+        size = "large" if peak > high else "small"
+        problem = (
+            f"the {role} peaks at {peak:.3g}, too {size} to fit in double precision "
+            f"(squared errors {'overflow' if size == 'large' else 'underflow'}; "
+            f"peaks from {low:g} to {high:g} are fine)"
+        )
+        fix = "rescale it: express it in other units"
+        raise RecordingError(
+            f"{problem}; {fix}.", owner=owner, cli=f"{problem}; {fix}.", kind="scale"
+        )
+    # Within SCALE_RANGE the squares lie between 1e-300 and 1e300: neither overflow
+    # nor underflow, so the rms is computed as it is everywhere else.
+    return peak, float(np.sqrt(np.mean(np.square(x))))
+
+
 class DataScales(eqx.Module):
     """The scales of a record that default search bounds are set from: peaks
     (max|u|, max|y|), rms values, duration and sample rate, all positive and finite,
@@ -95,9 +148,15 @@ class DataScales(eqx.Module):
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
+                why = (
+                    "a constant input or output cannot identify a model"
+                    if value == 0
+                    else "rescale the data (other units), or compute the rms on "
+                    "scaled values (DataScales.of does)"
+                )
                 raise ValueError(
                     f"DataScales: {name} ({label}) = {value:g} must be positive and "
-                    "finite; a constant input or output cannot identify a model."
+                    f"finite; {why}."
                 )
         for name in ("duration", "sample_rate"):
             value = getattr(self, name)
@@ -123,11 +182,14 @@ class DataScales(eqx.Module):
             )
         u, y = np.asarray(recording.u), np.asarray(recording.y)
         more = np.asarray(getattr(recording, "more_inputs", np.zeros((0, u.size))))
+        owner = f"DataScales.of({getattr(recording, 'name', 'recording')!r})"
+        input_peak, input_rms = signal_scales(u, "input", owner, constant=False)
+        output_peak, output_rms = signal_scales(y, "output", owner, constant=False)
         return cls(
-            input_peak=float(np.max(np.abs(u))),
-            output_peak=float(np.max(np.abs(y))),
-            input_rms=float(np.sqrt(np.mean(u**2))),
-            output_rms=float(np.sqrt(np.mean(y**2))),
+            input_peak=input_peak,
+            output_peak=output_peak,
+            input_rms=input_rms,
+            output_rms=output_rms,
             duration=float(recording.duration),
             sample_rate=float(recording.sample_rate),
             more_input_peaks=tuple(float(np.max(np.abs(row))) for row in more),
