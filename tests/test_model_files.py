@@ -514,6 +514,7 @@ def test_diagnose_json_loads_the_final_model(diagnosis_json, recordings, tmp_pat
     loaded = jh.load_model(diagnosis_json)
     assert isinstance(loaded.model, jh.ExtendedPiezo)
     assert loaded.family == "piezo"
+    assert loaded.columns == (("u",), "y")  # the columns evaluate reads
     assert list(loaded.effects) == [f["effect"] for f in data["findings"]]
     for name, value in data["final"]["parameters"].items():
         assert float(getattr(loaded.model, name)) == value
