@@ -16,9 +16,17 @@ The format (`format_version` 1), one JSON object:
       "effects": ["creep", ...],                the effects a diagnosis adopted
       "units": {"input": "V", "output": "m", "time": "s"},   "" where unknown
       "recordings": [{"name": ..., "samples": ..., "sample_rate_hz": ...,
-                      "input_range": [min u, max u]}],
+                      "input_range": [min u, max u],
+                      "inputs": ["u", "v"], "output": "y"}],
       "checksum": "sha256:<hex>"
     }
+
+A recording's "inputs" and "output" are the columns it was read from (its
+`input_names` and `output_name`): `jaxhyst evaluate` and `compensate` read the
+same columns of another file unless told otherwise. They are left out where the
+names are not columns (a recording read without header or time column, or given
+its command by --command-level); files written before they existed load as
+before, and a jaxhyst that does not know them ignores them.
 
 Numbers are stored with `repr` precision, so float64 parameters load bit-for-bit.
 The checksum is the SHA-256 of the canonical JSON of every other key (sorted keys,
@@ -94,7 +102,8 @@ class LoadedModel(eqx.Module):
     """What `load_model` returns: the `model`, ready to `simulate`, and what the
     file says about it: the `units` of its input, output and time ("" where
     unknown), the `recordings` it was fitted to (name, samples, sample_rate_hz,
-    input_range; empty if not recorded), the diagnosis `family` and adopted `effects` (None and
+    input_range, and the inputs and output columns where known; empty if not
+    recorded), the diagnosis `family` and adopted `effects` (None and
     () for a plain fit), and the `jaxhyst_version` that wrote it."""
 
     model: AbstractHysteresisModel
@@ -115,6 +124,20 @@ class LoadedModel(eqx.Module):
             return None
         return min(lo for lo, _ in known), max(hi for _, hi in known)
 
+    @property
+    def columns(self) -> tuple[tuple[str, ...], str] | None:
+        """The columns the model was fitted from: the inputs it reads (the first
+        `len(model.input_names)` of the recordings' inputs, in order) and the
+        output, by their names in the recordings. None when the file records no
+        names (an older file, or names that were not columns) or the recordings
+        name them differently."""
+        named = {_columns(r) for r in self.recordings}
+        found = named.pop() if len(named) == 1 else None
+        needed = len(self.model.input_names)
+        if found is None or len(found[0]) < needed:
+            return None
+        return found[0][:needed], found[1]
+
     def check_units(self, recording: Recording, where: str) -> None:
         """Refuse a recording whose declared input/output units differ from the
         model's (where both declare one): the errors would be off by the
@@ -126,6 +149,17 @@ class LoadedModel(eqx.Module):
                     f"{where}: its {key} is in {theirs}, the model's in {ours}; "
                     "convert the recording to the model's units."
                 )
+
+
+def _columns(recording: Mapping[str, Any]) -> tuple[tuple[str, ...], str] | None:
+    """A recording entry's input and output column names, None unless it records
+    them (non-empty strings)."""
+    inputs, output = recording.get("inputs"), recording.get("output")
+    if not (isinstance(inputs, list) and inputs and isinstance(output, str)):
+        return None
+    if not (output and all(isinstance(n, str) and n for n in inputs)):
+        return None
+    return tuple(inputs), output
 
 
 def _version() -> str:
@@ -186,6 +220,21 @@ def _unit(recordings: Sequence[Recording], key: str) -> str:
     return found[0] if found else ""
 
 
+def _recording_dict(recording: Recording, columns: bool) -> dict[str, Any]:
+    """A "recordings" entry: the recording's size and input range, and with
+    `columns` the names of its input and output columns."""
+    entry: dict[str, Any] = {
+        "name": recording.name,
+        "samples": recording.num_samples,
+        "sample_rate_hz": float(recording.sample_rate),
+        "input_range": [float(np.min(recording.u)), float(np.max(recording.u))],
+    }
+    if columns:
+        entry["inputs"] = list(recording.input_names)
+        entry["output"] = recording.output_name
+    return entry
+
+
 def checksum(data: Mapping[str, Any]) -> str:
     """ "sha256:<hex>" of the canonical JSON (sorted keys, no whitespace) of every
     key of `data` but "checksum"."""
@@ -199,6 +248,7 @@ def model_file_dict(
     recording: Recording | Sequence[Recording] | None = None,
     family: str | None = None,
     effects: Sequence[str] = (),
+    columns: bool = True,
 ) -> dict[str, Any]:
     """The model file's JSON object (with its checksum); see `save_model`."""
     cls = type(model)
@@ -248,15 +298,7 @@ def model_file_dict(
         "family": family,
         "effects": list(effects),
         "units": {key: _unit(recordings, key) for key in _UNIT_KEYS},
-        "recordings": [
-            {
-                "name": r.name,
-                "samples": r.num_samples,
-                "sample_rate_hz": float(r.sample_rate),
-                "input_range": [float(np.min(r.u)), float(np.max(r.u))],
-            }
-            for r in recordings
-        ],
+        "recordings": [_recording_dict(r, columns) for r in recordings],
     }
     data["checksum"] = checksum(data)
     return data
@@ -269,6 +311,7 @@ def save_model(
     recording: Recording | Sequence[Recording] | None = None,
     family: str | None = None,
     effects: Sequence[str] = (),
+    columns: bool = True,
     overwrite: bool = False,
 ) -> Path:
     """Save `model` as a model file (JSON, format in the module docstring); returns
@@ -280,12 +323,18 @@ def save_model(
       its smoothing rule and every field.
     - `path`: the file to write.
     - `recording`: the `Recording` (or recordings) it was fitted to: their names,
-      sizes, sample rates and units go into the file.
+      sizes, sample rates and units go into the file, and the names of their input
+      and output columns (`input_names`, `output_name`), which `jaxhyst evaluate`
+      and `compensate` read by default.
+    - `columns`: False leaves the column names out, for recordings whose names are
+      not columns of a file (read by index, or built with `with_input`).
     - `family`, `effects`: for a diagnosed model, the family's name and the
       adopted effects (`diagnosis.family`, `diagnosis.effects`).
     - `overwrite`: replace an existing file (refused otherwise).
     """
-    data = model_file_dict(model, recording=recording, family=family, effects=effects)
+    data = model_file_dict(
+        model, recording=recording, family=family, effects=effects, columns=columns
+    )
     refuse_folder(path, owner="save_model")
     return write_json(
         data,

@@ -1355,3 +1355,31 @@ def _read_arrays(
             units.append(input_units.get(selector))
     stored = {"name": meta["name"][0]} if meta["name"] else {}
     return columns, units, stored
+
+
+def column_names(path: str | os.PathLike) -> tuple[str, ...] | None:
+    """The names `Recording.load` can select in `path`: a text file's header cells
+    (a unit in brackets left out), the arrays of a `.npz` or `.mat` file. None where
+    the file cannot be read so (`Recording.load` says why)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    try:
+        if suffix in (".npz", ".mat"):
+            arrays = _stored_arrays(path, suffix[1:])
+            return tuple(key for key in arrays if not key.startswith(_META_PREFIX))
+        if suffix not in (".csv", ".txt"):
+            return None
+        with open(path, encoding="utf-8-sig", newline="") as file:
+            lines = (line.strip() for line in file)
+            first = next((x for x in lines if x and not x.startswith("#")), None)
+    except (OSError, UnicodeDecodeError, RecordingError):
+        return None
+    if first is None:
+        return None
+    delimiter = next((d for d in (",", ";", "\t") if d in first), None)
+    cells = (
+        first.split()
+        if delimiter is None
+        else next(csv.reader([first], delimiter=delimiter), [])
+    )
+    return tuple(_split_unit(cell.strip().strip("\"'").strip())[0] for cell in cells)

@@ -11,7 +11,7 @@ from .._evaluate import default_solver
 from .._files import prepare_parent
 from .._model_files import LoadedModel
 from .._plots import require_matplotlib
-from .._recording import Recording
+from .._recording import Recording, RecordingError
 from .._report import (
     COMPENSATION_FIGURES,
     display_unit,
@@ -19,6 +19,7 @@ from .._report import (
     write_compensation_report,
 )
 from .._status import RESULTS, has_status
+from ._evaluate import missing_column
 from ._options import add_model_file_argument, column, load_model_file, warn
 from ._outputs import check_files, print_written
 
@@ -59,7 +60,8 @@ def add_parser(subparsers) -> None:
         "--output",
         default=None,
         metavar="COLUMN",
-        help="the reference column (default: y; with --no-header: 1).",
+        help="the reference column (default: the output column the model was "
+        "fitted from, as its model file names it, else y; with --no-header: 1).",
     )
     group.add_argument(
         "--no-header",
@@ -126,16 +128,26 @@ def _limits(args: argparse.Namespace, loaded: LoadedModel) -> tuple[float, float
     return limits
 
 
-def _read_reference(args: argparse.Namespace) -> Recording:
+def _read_reference(args: argparse.Namespace, loaded: LoadedModel) -> Recording:
     header = not args.no_header
-    output = column(args.output, "y", 1, header, "output")
-    return Recording.load(
-        args.reference,
-        time=column(args.time, "t", 0, header, "time"),
-        input=output,
-        output=output,
-        header=header,
-    )
+    # Without --output: the output column the model was fitted from, else y.
+    columns = loaded.columns if header and args.output is None else None
+    default = "y" if columns is None else columns[1]
+    output = column(args.output, default, 1, header, "output")
+    try:
+        return Recording.load(
+            args.reference,
+            time=column(args.time, "t", 0, header, "time"),
+            input=output,
+            output=output,
+            header=header,
+        )
+    except RecordingError:
+        if columns is not None:
+            error = missing_column(args.reference, loaded, default, "--output")
+            if error is not None:
+                raise error from None
+        raise
 
 
 def run(args: argparse.Namespace) -> int:
@@ -150,7 +162,14 @@ def run(args: argparse.Namespace) -> int:
     if report is not None:
         require_matplotlib()
     loaded = load_model_file(args.model_file)
-    reference = _read_reference(args)
+    names = loaded.model.input_names
+    if len(names) > 1:
+        raise ValueError(
+            f"{args.model_file}: {type(loaded.model).__name__} reads {len(names)} "
+            f"inputs ({', '.join(names)}); compensate finds the one drive of a model "
+            "of one input (a piezo model): pass such a model file."
+        )
+    reference = _read_reference(args, loaded)
     limits = _limits(args, loaded)
     result = compensate(
         loaded.model,

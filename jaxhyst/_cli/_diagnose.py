@@ -9,7 +9,7 @@ from .._diagnose._diagnose import diagnose
 from .._diagnose._families import EFFECT_NAMES, DamperFamily
 from .._diagnose._policy import AdoptionPolicy
 from .._files import prepare_parent
-from .._model_files import EMBEDDED_KEY
+from .._model_files import EMBEDDED_KEY, model_file_dict
 from .._plots import require_matplotlib
 from .._recording import Recording
 from .._report import (
@@ -20,6 +20,7 @@ from .._report import (
     write_diagnosis_report,
 )
 from ._choices import family, prng_key
+from ._evaluate import columns_by_name
 from ._options import (
     add_recording_options,
     add_swarm_options,
@@ -31,7 +32,6 @@ from ._options import (
 from ._outputs import (
     check_files,
     check_folder,
-    diagnosis_model_file,
     print_written,
     write_json,
 )
@@ -210,7 +210,15 @@ def run(args: argparse.Namespace) -> int:
     if json_path is not None:
         data = diagnosis.to_dict()
         data["window"] = window(args, recording)
-        data[EMBEDDED_KEY] = diagnosis_model_file(diagnosis, recordings)
+        # The final model; its column names for evaluate unless --command-level
+        # gave the command.
+        data[EMBEDDED_KEY] = model_file_dict(
+            diagnosis.final_model,
+            recording=recordings,
+            family=diagnosis.family,
+            effects=diagnosis.effects,
+            columns=columns_by_name(args) and args.command_level is None,
+        )
         write_json(data, json_path, args.force)
     figures = {}
     if plots is not None:

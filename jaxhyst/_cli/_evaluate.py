@@ -7,12 +7,14 @@ import numpy as np
 
 from .._evaluate import predict
 from .._metrics import error_metrics
+from .._model_files import LoadedModel
+from .._recording import Recording, RecordingError, column_names
 from .._report import display_unit
 from ._options import (
     add_model_file_argument,
     add_recording_options,
     load_model_file,
-    load_recordings,
+    load_recording,
     window,
     window_line,
 )
@@ -35,6 +37,11 @@ def add_parser(subparsers) -> None:
     )
     add_model_file_argument(parser)
     add_recording_options(parser, several=True)
+    parser.epilog = (
+        "Without --input (--output), the inputs (output) are read from the columns "
+        "the model was fitted from, by the names its model file records (e.g. u and "
+        "v for an MR damper); files that record none read u (y) as before."
+    )
     parser.add_argument(
         "--json",
         metavar="OUT",
@@ -56,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         check_files([("--json", json_path)], args.force)
     loaded = load_model_file(args.model_file)
     model = loaded.model
-    recordings = load_recordings(args)
+    recordings, columns = load_for_model(args, loaded)
     for path, recording in zip(args.recording, recordings):
         loaded.check_units(recording, path)
 
@@ -78,6 +85,11 @@ def run(args: argparse.Namespace) -> int:
         f"model: {type(model).__name__}{effects} from {args.model_file} (jaxhyst "
         f"{loaded.jaxhyst_version}" + (f"; fitted to {fitted})" if fitted else ")")
     )
+    if columns is not None:
+        print(
+            f"columns: {', '.join(columns[0])} -> {columns[1]} (the model's, where "
+            "--input/--output do not pick others)"
+        )
     scale, unit = display_unit(loaded.units["output"] or recordings[0].output_unit)
     s = f" [{unit}]" if unit else ""
     width = max(len("recording"), *(len(path) for path in args.recording))
@@ -110,3 +122,92 @@ def run(args: argparse.Namespace) -> int:
         }
         write_json(data, json_path, args.force)
     return 0
+
+
+# ----------------------------------------------------- the columns of the model
+
+
+def columns_by_name(args: argparse.Namespace) -> bool:
+    """Whether the recordings were read by column name, so that their input and
+    output names are columns another file can be read by: not with --no-header or
+    --no-time, nor with an --input or --output given as an index."""
+    if args.no_header or args.no_time:
+        return False
+    given = [*(args.input or ()), *(() if args.output is None else (args.output,))]
+    return not any(text.strip().isdigit() for text in given)
+
+
+def model_columns(
+    args: argparse.Namespace, loaded: LoadedModel
+) -> tuple[tuple[str, ...], str] | None:
+    """The columns the model was fitted from (`LoadedModel.columns`), where the
+    command reads files by column name; None otherwise (the defaults u and y)."""
+    if args.no_header or args.no_time:
+        return None
+    return loaded.columns
+
+
+def missing_column(
+    path: str, loaded: LoadedModel, name: str, option: str
+) -> ValueError | None:
+    """The error for a file `path` that lacks the column `name` the model file
+    names (read by default, `option` picks another), None if it has it or its
+    columns cannot be listed."""
+    have = column_names(path)
+    columns = loaded.columns
+    if have is None or name in have or columns is None:
+        return None
+    inputs, output = columns
+    if option == "--input":
+        role = f"{loaded.model.input_names[inputs.index(name)]} input"
+        flags = " ".join(
+            "--input NAME" if each == name else f"--input {each}" for each in inputs
+        )
+        fix = (
+            "name the column to read with --input NAME, once per input in order "
+            f"({flags})"
+        )
+    else:
+        role = "output"
+        fix = "name the output column with --output NAME"
+    return ValueError(
+        f"{path} has no column {name!r}, the model's {role} (it was fitted from the "
+        f"columns {', '.join(inputs)} -> {output}); its columns are "
+        f"{', '.join(have) or 'none'}: {fix}."
+    )
+
+
+def load_for_model(
+    args: argparse.Namespace, loaded: LoadedModel
+) -> tuple[list[Recording], tuple[tuple[str, ...], str] | None]:
+    """Every recording named on the command line, its inputs and output read from
+    the columns the model was fitted from where --input / --output are not given;
+    and the columns read (None where the model file names none, or --input and
+    --output both pick them)."""
+    columns = model_columns(args, loaded)
+    if columns is None or (args.input is not None and args.output is not None):
+        return [load_recording(args, path) for path in args.recording], None
+    inputs, output = columns
+    defaults = argparse.Namespace(**vars(args))
+    if args.input is None:
+        defaults.input = list(inputs)
+    if args.output is None:
+        defaults.output = output
+    recordings = []
+    for path in args.recording:
+        try:
+            recordings.append(load_recording(defaults, path))
+        except RecordingError:
+            for name, option, given in (
+                *((name, "--input", args.input) for name in inputs),
+                (output, "--output", args.output),
+            ):
+                error = (
+                    None
+                    if given is not None
+                    else missing_column(path, loaded, name, option)
+                )
+                if error is not None:
+                    raise error from None
+            raise
+    return recordings, (tuple(defaults.input), defaults.output)

@@ -15,6 +15,7 @@ from .._report import FIT_FIGURES, fit_summary, write_fit_figures
 from .._status import RESULTS, has_status, status_name
 from .._swarm import MPSO
 from ._choices import FIT_MODELS, described, prng_key
+from ._evaluate import columns_by_name
 from ._options import (
     add_recording_options,
     add_swarm_options,
@@ -178,7 +179,9 @@ def run(args: argparse.Namespace) -> int:
         if stages is not None:
             data["stages"] = stages
         # The model file (jh.load_model and 'jaxhyst evaluate' read it from here).
-        data[EMBEDDED_KEY] = model_file_dict(fit.model, recording=recordings)
+        data[EMBEDDED_KEY] = model_file_dict(
+            fit.model, recording=recordings, columns=columns_by_name(args)
+        )
         write_json(data, json_path, args.force)
     for i, (recording, folder) in enumerate(zip(recordings, folders)):
         written = write_fit_figures(
