@@ -118,3 +118,86 @@ def test_command_line_fits_and_evaluates_two_rates(tmp_path, capsys):
     assert [row["samples"] for row in rows] == [slow.num_samples, fast.num_samples]
     for row, fitted in zip(rows, data["metrics"]["per_recording"]):
         assert row["metrics"]["rmse"] == pytest.approx(fitted["rmse"], rel=1e-6)
+
+
+def _piezo_record(truth, freqs, amps, rate, duration, name, rng, sigma=0.002):
+    # Multisines start at zero, so each test starts from rest like the model.
+    t = np.arange(int(duration * rate) + 1) / rate
+    u = sum(a * np.sin(2 * np.pi * f * t) for f, a in zip(freqs, amps))
+    y = np.asarray(jh.simulate(truth, jh.InputPath.from_samples(t, u)))
+    return jh.Recording(t, u, y + sigma * rng.standard_normal(t.size), name=name)
+
+
+@pytest.mark.slow  # 104 s under load; the quick tests below check its plumbing
+def test_two_rates_are_diagnosed_as_one_specimen():
+    # A slow test at 200 samples/s beside a fast one at 1 kHz of one piezo stage
+    # whose asymmetry (eps*u*sign(udot)) the base model does not have.
+    sigma = 0.002
+    truth = jh.CorrectedPiezoBoucWen(
+        k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5, eps=0.2
+    )
+    rng = np.random.default_rng(0)
+    slow = _piezo_record(truth, (0.5, 1.7), (1.0, 0.5), 200.0, 4.0, "slow", rng)
+    fast = _piezo_record(truth, (2.0, 5.3), (0.7, 0.3), 1000.0, 1.0, "fast", rng)
+    base = jh.PiezoBoucWen(k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5)
+    diagnosis = jh.diagnose([slow, fast], key=jax.random.key(0), base=base)
+    assert diagnosis.effects == ("asymmetry",)
+    assert diagnosis.samples == slow.num_samples + fast.num_samples
+    # Held-out data in each recording.
+    split = np.split(diagnosis.heldout, [slow.num_samples])
+    assert all(0.1 < part.mean() < 0.5 for part in split)
+    per = diagnosis.to_dict()["per_recording"]
+    assert [p["samples"] for p in per] == [slow.num_samples, fast.num_samples]
+    for p in per:
+        assert p["final"]["rmse"] < 1.3 * sigma < p["baseline"]["rmse"]
+    # Each recording simulated alone at its own rate gives the joined prediction.
+    alone = np.concatenate(
+        [
+            np.asarray(jh.simulate(diagnosis.final_model, r.input_path()))
+            for r in (slow, fast)
+        ]
+    )
+    np.testing.assert_allclose(diagnosis.final_predicted, alone, rtol=0, atol=1e-9)
+
+
+def test_recordings_at_two_rates_join_and_simulate_as_a_diagnosis_reads_them():
+    from jaxhyst._diagnose._records import DiagnosisRecords
+
+    slow, _ = _sine_record(0.25, 1.0, 1, 200.0, seed=0, name="slow")
+    fast, _ = _sine_record(1.0, 0.7, 1, 1000.0, seed=1, name="fast")
+    with pytest.raises(jh.RecordingError, match="mixed_rates=True"):
+        jh.Recording.join([slow, fast])
+    joined = jh.Recording.join([slow, fast], mixed_rates=True)
+    # Every sample kept, in order, on a time axis at the finest step.
+    assert joined.num_samples == slow.num_samples + fast.num_samples
+    np.testing.assert_array_equal(joined.y, np.concatenate([slow.y, fast.y]))
+    assert joined.dt == pytest.approx(fast.dt)
+    # One rate: the join is as before (the first recording's step).
+    same = jh.Recording.join([fast, fast], mixed_rates=True)
+    np.testing.assert_array_equal(same.t, jh.Recording.join([fast, fast]).t)
+
+    records = DiagnosisRecords.of((slow, fast), "test")
+    assert records.mixed_rates and records.joined.name == "slow + fast"
+    np.testing.assert_array_equal(np.asarray(records.inputs.dt), [slow.dt, fast.dt])
+    assert records.step == pytest.approx(fast.dt)
+    assert records.duration == pytest.approx(slow.duration + fast.duration)
+    # The refit stride: the smallest any recording asks for.
+    family = jh.families.PiezoFamily()
+    model = family.extend(TRUTH, joined)
+    assert records.stride(family, model) == min(
+        family.refit_stride(model, r) for r in (slow, fast)
+    )
+    assert family.refit_stride(model, fast) > records.stride(family, model)
+    # Each recording simulated at its own step, as alone.
+    solver = jh.RK4()
+    alone = [
+        np.asarray(jh.simulate(STAGE, r.input_path(), solver)) for r in (slow, fast)
+    ]
+    np.testing.assert_array_equal(records.predict(STAGE, solver), np.concatenate(alone))
+    # A batch of models (vmapped twice) agrees to rounding.
+    np.testing.assert_allclose(
+        records.predict_each([STAGE, STAGE], solver)[1],
+        np.concatenate(alone),
+        rtol=1e-13,
+        atol=1e-16,
+    )

@@ -188,8 +188,9 @@ def run(args: argparse.Namespace) -> int:
         require_matplotlib()
     recordings = _load(args, chosen)
     # Several recordings are diagnosed as one specimen; the summary, figures and
-    # report read their samples one after another (the joined record).
-    recording = Recording.join(recordings)
+    # report read their samples one after another (the joined record; at several
+    # sample rates its time runs at the finest one's step, each test kept whole).
+    recording = Recording.join(recordings, mixed_rates=True)
 
     diagnosis = diagnose(
         recordings if len(recordings) > 1 else recording,
