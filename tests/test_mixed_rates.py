@@ -201,3 +201,33 @@ def test_recordings_at_two_rates_join_and_simulate_as_a_diagnosis_reads_them():
         rtol=1e-13,
         atol=1e-16,
     )
+
+
+@pytest.mark.slow  # 330 s under load (the whole diagnosis at two rates)
+def test_command_line_diagnoses_two_rates(tmp_path, capsys):
+    from jaxhyst._cli._main import main
+
+    truth = jh.CorrectedPiezoBoucWen(
+        k1=0.3, k2=1.0, A1=0.5, beta1=0.6, gamma1=0.2, n=1.5, eps=0.2
+    )
+    rng = np.random.default_rng(0)
+    slow = _piezo_record(truth, (0.5, 1.7), (1.0, 0.5), 200.0, 4.0, "slow", rng)
+    fast = _piezo_record(truth, (2.0, 5.3), (0.7, 0.3), 1000.0, 1.0, "fast", rng)
+    paths = []
+    for recording in (slow, fast):
+        path = tmp_path / f"{recording.name}.csv"
+        recording.save(path)
+        paths.append(str(path))
+    out = tmp_path / "diagnosis.json"
+    report = tmp_path / "report.md"
+    argv = ["diagnose", *paths, "--json", str(out), "--report", str(report)]
+    assert main([*argv, "--particles", "16", "--iterations", "20"]) == 0
+    stdout = capsys.readouterr().out
+    assert "slow, 801 samples at 200 Hz" in stdout
+    assert "fast, 1001 samples at 1000 Hz" in stdout
+    data = json.loads(out.read_text())
+    assert data["final"]["model"] == "piezo+asymmetry"
+    assert [p["samples"] for p in data["per_recording"]] == [801, 1001]
+    rates = [r["sample_rate_hz"] for r in data["model_file"]["recordings"]]
+    assert rates == [200.0, 1000.0]
+    assert report.exists()

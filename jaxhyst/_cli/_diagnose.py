@@ -207,6 +207,13 @@ def run(args: argparse.Namespace) -> int:
     line = window_line(args, recording)
     if line is not None:
         print(line)
+    if len({round(r.sample_rate, 6) for r in recordings}) > 1:
+        for each in recordings:
+            print(
+                f"recording: {each.name}, {each.num_samples} samples at "
+                f"{each.sample_rate:g} Hz over {each.duration:g} s (simulated at its "
+                "own rate; the joined record below runs at the finest)"
+            )
     print(diagnosis_summary(diagnosis, recording))
     if json_path is not None:
         data = diagnosis.to_dict()

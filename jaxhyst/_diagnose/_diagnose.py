@@ -1512,7 +1512,13 @@ def _advice(ctx: _Context, state: _State) -> list[Advice]:
     if not state.contrasts:
         return []
     ctx.progress.say("simulating the rival models under tests that could separate them")
-    probes = ctx.family.probes(ctx.recording)
+    # At several sample rates the joined record's time is not the tests' own:
+    # each recording proposes its tests.
+    probes = (
+        [p for r in ctx.records.recordings for p in ctx.family.probes(r)]
+        if ctx.records.mixed_rates
+        else ctx.family.probes(ctx.recording)
+    )
     sigma = state.noise_model.sd
     advice = []
     for contrast in state.contrasts:
