@@ -1594,9 +1594,9 @@ def diagnose(
     5. Final refit on every sample, and the residual that remains structured on
        held-out data but matches no effect is reported as `unexplained`.
 
-    Several recordings (same units) are diagnosed as one: each is
-    split by the family's rule (held-out data in every recording) and simulated from
-    its own initial state, all of them share the model's parameters, and the
+    Several recordings (same units) are diagnosed as one: each is split by the
+    family's rule (held-out data in every recording) and simulated from its own
+    initial state, all of them share the model's parameters, and the
     sample-wise analysis reads their samples one after another (the `joined`
     record: the `Diagnosis`'s predictions, masks and locations are on it; times
     in it continue across the joins). Recordings at different sample rates are
@@ -1604,10 +1604,11 @@ def diagnose(
     the finest one's step, which is also the rate the refit bounds read, the
     refit stride is the smallest any recording asks for and the slowest time
     scale is their total duration (`DiagnosisRecords`). `Diagnosis.per_recording`
-    has each recording's errors before and after. Each recording must start from rest, as
-    separate tests do: a piece cut from the middle of a longer record starts with
-    a hysteretic state the model does not know (on a synthetic piezo record cut in
-    two, the second half simulated from rest missed by 38 noise sigmas).
+    has each recording's errors before and after. Each recording must start from
+    rest, as separate tests do: a piece cut from the middle of a longer record
+    starts with a hysteretic state the model does not know (on a synthetic piezo
+    record cut in two, the second half simulated from rest missed by 38 noise
+    sigmas).
 
     `policy` holds the adoption rules (`AdoptionPolicy`; None: the family's
     `default_policy()`). `swarm`: the base fit's swarm (None: the family's

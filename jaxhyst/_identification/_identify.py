@@ -353,8 +353,8 @@ def identify(
       (default `swarm_samples_per_step(recording.u)`, the smallest over several
       recordings, one count of samples for all of them, so no record steps more of
       its input's path than its own choice; at different sample rates a step
-      spans a longer time in the slower record): the loss landscape of a rate-independent model is set by the
-      input's path, not the sample rate. Every sample is still compared (dense
+      spans a longer time in the slower record): the loss landscape of a
+      rate-independent model is set by the input's path, not the sample rate. Every sample is still compared (dense
       output, `RK4(samples_per_step=...)`); models that `RK4(samples_per_step=...)`
       cannot run are decimated instead. The polish integrates every sample.
     - `start`: a model to polish from (warm start) instead of, or in addition to, the
