@@ -32,6 +32,7 @@ from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
 from .._recording import _UNIFORM_RTOL, Recording, RecordingError
 from .._simulate import AbstractSimulationSolver, simulate
+from ._families import AbstractFamily
 from ._score import jacobian, predict
 
 
@@ -133,7 +134,7 @@ class DiagnosisRecords(eqx.Module):
             return self.joined.duration
         return float(sum(r.duration for r in self.recordings))
 
-    def stride(self, family, model) -> int:
+    def stride(self, family: AbstractFamily, model: AbstractHysteresisModel) -> int:
         """The family's refit stride (`refit_stride`) for the joined record, or for
         several rates the smallest any recording asks for (one stride in samples
         steps every record; the slowest record's keeps its own resolution)."""
