@@ -128,7 +128,7 @@ def _piezo_record(truth, freqs, amps, rate, duration, name, rng, sigma=0.002):
     return jh.Recording(t, u, y + sigma * rng.standard_normal(t.size), name=name)
 
 
-@pytest.mark.slow  # 104 s under load; the quick tests below check its plumbing
+@pytest.mark.slow  # 88-104 s; the quick tests below check its plumbing
 def test_two_rates_are_diagnosed_as_one_specimen():
     # A slow test at 200 samples/s beside a fast one at 1 kHz of one piezo stage
     # whose asymmetry (eps*u*sign(udot)) the base model does not have.
@@ -203,7 +203,7 @@ def test_recordings_at_two_rates_join_and_simulate_as_a_diagnosis_reads_them():
     )
 
 
-@pytest.mark.slow  # 330 s under load (the whole diagnosis at two rates)
+@pytest.mark.slow  # 62 s, 330 s under load (the whole diagnosis at two rates)
 def test_command_line_diagnoses_two_rates(tmp_path, capsys):
     from jaxhyst._cli._main import main
 
