@@ -462,12 +462,22 @@ class Recording(eqx.Module):
         )
 
     @classmethod
-    def join(cls, recordings: Sequence["Recording"]) -> "Recording":
+    def join(
+        cls, recordings: Sequence["Recording"], *, mixed_rates: bool = False
+    ) -> "Recording":
         """Several recordings' samples one after another, as one recording named
         "a + b + ...": the time continues across each join at the first recording's
-        step. They must share their units and sample rate (resample first). Used to
-        read several tests of one specimen as one vector (`diagnose` does); the
-        joined record is not one experiment, so do not simulate across the joins."""
+        step. They must share their units and sample rate. Used to read several
+        tests of one specimen as one vector (`diagnose` does); the joined record is
+        not one experiment, so do not simulate across the joins.
+
+        `mixed_rates=True` also joins recordings at different sample rates, none
+        resampled: every sample is kept and the joined time runs at the finest
+        recording's step, so a recording at a lower rate runs faster in it than it
+        was recorded (a 200 samples/s test beside a 1 kHz one lasts a fifth of its
+        length). Its time axis and rates are then those of the vector, not of the
+        experiments: read it sample by sample (display, masks, residuals), and
+        simulate each recording on its own path."""
         recordings = list(recordings)
         if not recordings or not all(isinstance(r, Recording) for r in recordings):
             raise TypeError("Recording.join: pass a non-empty list of Recordings.")
@@ -499,17 +509,20 @@ class Recording(eqx.Module):
                     "of units.",
                     owner="Recording.join",
                 )
-            if abs(other.dt - first.dt) > _UNIFORM_RTOL * first.dt:
+            if not mixed_rates and abs(other.dt - first.dt) > _UNIFORM_RTOL * first.dt:
                 raise RecordingError(
                     f"{other.name!r} is sampled at "
                     f"{other.sample_rate:.6g} per {other.time_unit}, {first.name!r} "
                     f"at {first.sample_rate:.6g}; recordings read together need one "
-                    "sample rate: resample them (Recording.resample).",
+                    "sample rate, or join(..., mixed_rates=True) to read their samples "
+                    "one after another (each kept at its own rate).",
                     owner="Recording.join",
                 )
         if len(recordings) == 1:
             return first
         dt = first.dt
+        if any(abs(r.dt - first.dt) > _UNIFORM_RTOL * first.dt for r in recordings):
+            dt = min(r.dt for r in recordings)  # mixed_rates: the finest step
         times, start = [], float(first.t[0])
         for recording in recordings:
             times.append(start + dt * np.arange(recording.num_samples))

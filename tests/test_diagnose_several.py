@@ -74,9 +74,6 @@ def test_several_recordings_bad_input():
         jh.diagnose([], key=jax.random.key(0))
     with pytest.raises(TypeError, match=r"recording\[1\] must be a Recording"):
         jh.diagnose([slow, "fast.csv"], key=jax.random.key(0))  # pyright: ignore[reportArgumentType]
-    coarse = fast.resample(2 * fast.dt)
-    with pytest.raises(ValueError, match="one sample rate"):
-        jh.diagnose([slow, coarse], key=jax.random.key(0))
     other_units = jh.Recording(
         fast.t, fast.u, fast.y, name="fast", input_unit="V", output_unit="mm"
     )

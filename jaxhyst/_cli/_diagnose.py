@@ -188,8 +188,9 @@ def run(args: argparse.Namespace) -> int:
         require_matplotlib()
     recordings = _load(args, chosen)
     # Several recordings are diagnosed as one specimen; the summary, figures and
-    # report read their samples one after another (the joined record).
-    recording = Recording.join(recordings)
+    # report read their samples one after another (the joined record; at several
+    # sample rates its time runs at the finest one's step, each test kept whole).
+    recording = Recording.join(recordings, mixed_rates=True)
 
     diagnosis = diagnose(
         recordings if len(recordings) > 1 else recording,
@@ -206,6 +207,13 @@ def run(args: argparse.Namespace) -> int:
     line = window_line(args, recording)
     if line is not None:
         print(line)
+    if len({round(r.sample_rate, 6) for r in recordings}) > 1:
+        for each in recordings:
+            print(
+                f"recording: {each.name}, {each.num_samples} samples at "
+                f"{each.sample_rate:g} Hz over {each.duration:g} s (simulated at its "
+                "own rate; the joined record below runs at the finest)"
+            )
     print(diagnosis_summary(diagnosis, recording))
     if json_path is not None:
         data = diagnosis.to_dict()

@@ -114,6 +114,13 @@ def _plot_folders(plots: Path, recordings: list[Recording]) -> list[Path]:
     ]
 
 
+def _solver(model, recordings: list[Recording]):
+    """The default solver of the recording that needs the most RK4 substeps (the
+    one with the longest sample interval for a stiff model): one solver for all
+    of them, each simulated at its own sample interval."""
+    return max((default_solver(model, r) for r in recordings), key=lambda s: s.substeps)
+
+
 def run(args: argparse.Namespace) -> int:
     swarm = swarm_of(args)
     outputs: list[tuple[str, Path]] = []
@@ -142,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
             recordings,
             key=key,
             swarm=swarm,
-            solver=default_solver(model, recordings[0]),
+            solver=_solver(model, recordings),
             progress=True,
             throw=False,
         )

@@ -199,7 +199,7 @@ def _refit(
         ctx.sample_rate, ctx.duration, state.natural if natural is None else natural
     )
     settings = RefitSettings(
-        max_steps, ctx.policy.refit_swarm, ctx.family.refit_stride(model, ctx.recording)
+        max_steps, ctx.policy.refit_swarm, ctx.records.stride(ctx.family, model)
     )
     return refit(
         ctx.family,
@@ -438,7 +438,7 @@ def _score_round(
     residual = ctx.y - state.predicted
     w = ctx.fit_mask.astype(float)
     base_cols = np.stack([column[p] for p in state.free], axis=1)
-    dt = float(ctx.records.one_input.dt)
+    dt = ctx.records.step
     projected = {}
     for effect in remaining:
         cols = effect.directions(column, state.predicted, dt)
@@ -994,7 +994,7 @@ def _near_misses(
         effect = family.effect(trial.score.effect)
         raw[effect.name] = project_off(
             base_only,
-            effect.directions(column, state.predicted, float(ctx.records.one_input.dt)),
+            effect.directions(column, state.predicted, ctx.records.step),
             w,
         )
     rejected = [(t.score.effect, t.validation) for t in trials]
@@ -1549,7 +1549,13 @@ def _advice(ctx: _Context, state: _State) -> list[Advice]:
     if not state.contrasts:
         return []
     ctx.progress.say("simulating the rival models under tests that could separate them")
-    probes = ctx.family.probes(ctx.recording)
+    # At several sample rates the joined record's time is not the tests' own:
+    # each recording proposes its tests.
+    probes = (
+        [p for r in ctx.records.recordings for p in ctx.family.probes(r)]
+        if ctx.records.mixed_rates
+        else ctx.family.probes(ctx.recording)
+    )
     sigma = state.noise_model.sd
     advice = []
     for contrast in state.contrasts:
@@ -1625,16 +1631,21 @@ def diagnose(
     5. Final refit on every sample, and the residual that remains structured on
        held-out data but matches no effect is reported as `unexplained`.
 
-    Several recordings (same units and sample rate) are diagnosed as one: each is
-    split by the family's rule (held-out data in every recording) and simulated from
-    its own initial state, all of them share the model's parameters, and the
+    Several recordings (same units) are diagnosed as one: each is split by the
+    family's rule (held-out data in every recording) and simulated from its own
+    initial state, all of them share the model's parameters, and the
     sample-wise analysis reads their samples one after another (the `joined`
     record: the `Diagnosis`'s predictions, masks and locations are on it; times
-    in it continue across the joins). `Diagnosis.per_recording` has each
-    recording's errors before and after. Each recording must start from rest, as
-    separate tests do: a piece cut from the middle of a longer record starts with
-    a hysteretic state the model does not know (on a synthetic piezo record cut in
-    two, the second half simulated from rest missed by 38 noise sigmas).
+    in it continue across the joins). Recordings at different sample rates are
+    each simulated at their own (none resampled); the joined record then runs at
+    the finest one's step, which is also the rate the refit bounds read, the
+    refit stride is the smallest any recording asks for and the slowest time
+    scale is their total duration (`DiagnosisRecords`). `Diagnosis.per_recording`
+    has each recording's errors before and after. Each recording must start from
+    rest, as separate tests do: a piece cut from the middle of a longer record
+    starts with a hysteretic state the model does not know (on a synthetic piezo
+    record cut in two, the second half simulated from rest missed by 38 noise
+    sigmas).
 
     `policy` holds the adoption rules (`AdoptionPolicy`; None: the family's
     `default_policy()`). `swarm`: the base fit's swarm (None: the family's
@@ -1734,7 +1745,7 @@ def _diagnose(
         records.stacked(fit_mask.astype(measured.dtype)),
         family.solver(recording),
         recording.sample_rate,
-        recording.duration,
+        records.duration,
         Progress(progress),
         family.cannot_show(recording),
     )

@@ -6,6 +6,16 @@ is left) reads one flat vector: the recordings' samples one after another, the
 is simulated from its own initial state (a stacked input path, vmapped over
 recordings, shorter ones padded and the padding dropped), so no state carries
 over from the end of one test to the start of the next.
+
+Recordings at different sample rates are read the same way: each is simulated at
+its own sample interval (the stacked path's `dt` is one per record, and the vmapped
+RK4 steps each record by its own), none resampled. The joined vector then runs at
+the finest recording's step (`Recording.join(..., mixed_rates=True)`), so where a
+stage needs one rate it reads that one: the refit bounds' fastest time scale, the
+score test's derivative directions (a direction mis-scaled on part of the vector
+costs the test power, not validity: the refits and held-out checks simulate every
+record at its own rate). The refits' stride is the smallest any recording asks
+for, and the slowest time scale is the recordings' total duration.
 """
 
 from collections.abc import Sequence
@@ -20,8 +30,9 @@ from .._identification._identifiability import output_jacobian
 from .._identification._problem import RecordSimulation, stack_inputs
 from .._inputs import InputPath
 from .._models.base import AbstractHysteresisModel
-from .._recording import Recording, RecordingError
+from .._recording import _UNIFORM_RTOL, Recording, RecordingError
 from .._simulate import AbstractSimulationSolver, simulate
+from ._families import AbstractFamily
 from ._score import jacobian, predict
 
 
@@ -78,7 +89,7 @@ class DiagnosisRecords(eqx.Module):
             only = recordings[0]
             return cls(recordings, only, only.input_path(), None)
         try:
-            joined = Recording.join(recordings)
+            joined = Recording.join(recordings, mixed_rates=True)
         except RecordingError as error:
             raise ValueError(f"{owner}: {error}") from None
         length = max(r.num_samples for r in recordings)
@@ -99,6 +110,37 @@ class DiagnosisRecords(eqx.Module):
         if self.valid is None:
             return self.inputs
         return jax.tree.map(lambda x: x[0], self.inputs)
+
+    @property
+    def mixed_rates(self) -> bool:
+        """True when the recordings differ in sample rate (as `Recording.join`
+        tells them apart)."""
+        first = self.recordings[0].dt
+        return any(abs(r.dt - first) > _UNIFORM_RTOL * first for r in self.recordings)
+
+    @property
+    def step(self) -> float:
+        """The joined vector's sample interval: the recording's own for one rate,
+        the finest recording's for several rates."""
+        if not self.mixed_rates:
+            return float(self.one_input.dt)
+        return float(self.joined.dt)
+
+    @property
+    def duration(self) -> float:
+        """The joined record's duration, or for several rates (whose joined time is
+        compressed) the recordings' durations added up."""
+        if not self.mixed_rates:
+            return self.joined.duration
+        return float(sum(r.duration for r in self.recordings))
+
+    def stride(self, family: AbstractFamily, model: AbstractHysteresisModel) -> int:
+        """The family's refit stride (`refit_stride`) for the joined record, or for
+        several rates the smallest any recording asks for (one stride in samples
+        steps every record; the slowest record's keeps its own resolution)."""
+        if not self.mixed_rates:
+            return family.refit_stride(model, self.joined)
+        return min(family.refit_stride(model, r) for r in self.recordings)
 
     @property
     def samples_per_record(self) -> int:

@@ -249,12 +249,6 @@ def _recordings(recording: Recording | Sequence[Recording]) -> list[Recording]:
                 "use Recording(t, u, y) or Recording.load(path)."
             )
         r.require_samples(20, what="identification")
-    dts = {round(r.dt, 15) for r in records}
-    if len(dts) > 1:
-        raise ValueError(
-            f"identify: the recordings have different sample intervals {sorted(dts)}; "
-            "resample them to one rate (Recording.resample) before a joint fit."
-        )
     inputs = {r.input_names[1:] for r in records}
     if len(inputs) > 1:
         raise ValueError(
@@ -282,7 +276,9 @@ def check_inputs(
 
 def joint_scales(recordings: Sequence[Recording]) -> DataScales:
     """The data scales of several recordings taken together (peaks, rms over all
-    samples, the longest duration): what a joint fit's default bounds are set by."""
+    samples, the longest duration, the highest sample rate): what a joint fit's
+    default bounds are set by. Recordings at different rates are bounded by the
+    finest one: the fastest time scale any of them can show."""
     u = np.concatenate([np.asarray(r.u) for r in recordings])
     y = np.concatenate([np.asarray(r.y) for r in recordings])
     return DataScales(
@@ -291,7 +287,7 @@ def joint_scales(recordings: Sequence[Recording]) -> DataScales:
         input_rms=float(np.sqrt(np.mean(u**2))),
         output_rms=float(np.sqrt(np.mean(y**2))),
         duration=max(r.duration for r in recordings),
-        sample_rate=recordings[0].sample_rate,
+        sample_rate=max(r.sample_rate for r in recordings),
         more_input_peaks=tuple(
             max(float(np.max(np.abs(r.more_inputs[i]))) for r in recordings)
             for i in range(recordings[0].num_inputs - 1)
@@ -343,8 +339,9 @@ def identify(
 ) -> Fit:
     """Fit `model` (a template: its class, fixed parameters and smoothing) to
     `recording`, or to a list of recordings at once (one model for all of them:
-    shared parameters, each recording simulated from its own initial state; they
-    must share the sample interval).
+    shared parameters, each recording simulated from its own initial state on its
+    own time grid: recordings at different sample rates are fitted as they are,
+    each RK4 step the interval of its own record, none resampled).
 
     - `space`: the free parameters and bounds; default `ParameterSpace.default`, set
       by the data's scales (all recordings together), which fixes the piezo gauge
@@ -354,8 +351,10 @@ def identify(
       the same basin in a fraction of the time).
     - `swarm_stride`: samples spanned by one RK4 step of the swarm's objective
       (default `swarm_samples_per_step(recording.u)`, the smallest over several
-      recordings): the loss landscape of a rate-independent model is set by the
-      input's path, not the sample rate. Every sample is still compared (dense
+      recordings, one count of samples for all of them, so no record steps more of
+      its input's path than its own choice; at different sample rates a step
+      spans a longer time in the slower record): the loss landscape of a
+      rate-independent model is set by the input's path, not the sample rate. Every sample is still compared (dense
       output, `RK4(samples_per_step=...)`); models that `RK4(samples_per_step=...)`
       cannot run are decimated instead. The polish integrates every sample.
     - `start`: a model to polish from (warm start) instead of, or in addition to, the
