@@ -15,6 +15,7 @@ import jax
 from .._cache import enable_compilation_cache
 from .._recording import RecordingError
 from ._options import PROG, one_line
+from ._programs import install_program_store
 from ._words import SOURCES, cli_words
 
 
@@ -161,6 +162,24 @@ def quick_compile_flags(argv: Sequence[str], environ: dict[str, str]) -> str | N
     return f"{flags} {_QUICK_COMPILE_FLAG}".strip()
 
 
+PROGRAM_STORE_VAR = "JAXHYST_PROGRAM_STORE"
+
+
+def _store_programs() -> None:
+    """Keep exported programs beside the compilation cache (`_programs`), unless
+    the cache is off or `JAXHYST_PROGRAM_STORE=0`: a process of its own, so tests
+    that call `main` in-process never see it."""
+    if os.environ.get(PROGRAM_STORE_VAR, "1") == "0":
+        return
+    folder = enable_compilation_cache()
+    if folder is None:
+        return
+    try:
+        install_program_store(folder / "programs")
+    except OSError:
+        pass  # no store: every program is traced, as without one
+
+
 def script() -> NoReturn:
     """The `jaxhyst` console script and `python -m jaxhyst`: `main()`, then the
     process ends at once with its exit status (`os._exit`, after flushing stdout
@@ -175,6 +194,7 @@ def script() -> NoReturn:
     flags = quick_compile_flags(sys.argv[1:], dict(os.environ))
     if flags is not None:
         os.environ["XLA_FLAGS"] = flags
+    _store_programs()
     status = main()
     try:
         sys.stdout.flush()
