@@ -22,7 +22,7 @@ from jaxtyping import Array, Float, PRNGKeyArray
 
 from .._memory_maps import release_if_near_map_limit
 from .._metrics import error_metrics
-from .._models.base import AbstractHysteresisModel, DataScales
+from .._models.base import AbstractHysteresisModel, DataScales, signal_scales
 from .._params import ParameterSpace
 from .._placement import moved_to, running_on, serial_device
 from .._recording import Recording
@@ -281,11 +281,15 @@ def joint_scales(recordings: Sequence[Recording]) -> DataScales:
     finest one: the fastest time scale any of them can show."""
     u = np.concatenate([np.asarray(r.u) for r in recordings])
     y = np.concatenate([np.asarray(r.y) for r in recordings])
+    # Checked before squaring: a peak near overflow or underflow is refused with
+    # its reason instead of an rms that overflowed (or underflowed) to inf (or 0).
+    input_peak, input_rms = signal_scales(u, "input", "identify", constant=False)
+    output_peak, output_rms = signal_scales(y, "output", "identify", constant=False)
     return DataScales(
-        input_peak=float(np.max(np.abs(u))),
-        output_peak=float(np.max(np.abs(y))),
-        input_rms=float(np.sqrt(np.mean(u**2))),
-        output_rms=float(np.sqrt(np.mean(y**2))),
+        input_peak=input_peak,
+        output_peak=output_peak,
+        input_rms=input_rms,
+        output_rms=output_rms,
         duration=max(r.duration for r in recordings),
         sample_rate=max(r.sample_rate for r in recordings),
         more_input_peaks=tuple(
