@@ -9,6 +9,7 @@ dask-jobqueue on Slurm). Dask is imported only when a batch runs.
 
 import dataclasses
 import importlib.util
+import logging
 import os
 import sys
 import time
@@ -30,7 +31,8 @@ from ._store import (
     temporary_folder,
 )
 from ._summary import INDEX, SUMMARY, SummaryRow, write_summary
-from ._task import THREADS_ENV, RecordOutcome, RecordTask, run_record
+from ._task import RecordOutcome, RecordTask, run_record
+from ._worker import THREADS_ENV
 
 
 @dataclasses.dataclass(frozen=True)
@@ -154,6 +156,11 @@ class _Progress:
             flush=True,
         )
 
+    def clear(self) -> None:
+        """End the progress line on a terminal, so that a message can follow."""
+        if self.show and sys.stderr.isatty():
+            print(file=sys.stderr, flush=True)
+
     def end(self) -> None:
         if self.show and sys.stderr.isatty():
             print(file=sys.stderr, flush=True)
@@ -182,7 +189,15 @@ def _client(cluster: LocalWorkers | SchedulerAddress, say: Callable[[str], None]
         env["XLA_FLAGS"] = flags
     # A free port (several batches may run on one machine); none without bokeh.
     dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
-    options: dict[str, Any] = {"dashboard_address": dashboard, "env": env}
+    options: dict[str, Any] = {
+        "dashboard_address": dashboard,
+        "env": env,
+        "preload": [f"{__package__}._worker"],
+        # Dask's own log lines (a task "marked as failed" when its worker died,
+        # workers killed at the end of an interrupted batch) would contradict the
+        # batch's, which says what it does about them.
+        "silence_logs": logging.CRITICAL,
+    }
     # A worker that dies fails its task at once; the batch resubmits it itself
     # (`retries`), so that the count is the same on every cluster.
     with dask.config.set(
@@ -325,6 +340,11 @@ def _run(
                     meter.failed += 1
             elif isinstance(error, KilledWorker) and attempts[task.name] < retries:
                 attempts[task.name] += 1
+                meter.clear()
+                say(
+                    f"batch: the worker running {task.name} died; running it again "
+                    f"(retry {attempts[task.name]} of {retries})"
+                )
                 again = client.submit(
                     run_record,
                     task,
@@ -349,10 +369,6 @@ def _run(
         return False
     except KeyboardInterrupt:
         meter.end()
-        say(
-            "batch: interrupted; the records that finished are kept, rerun the same "
-            "command to finish the rest"
-        )
         return True
     finally:
         if client is not None:

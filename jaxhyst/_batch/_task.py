@@ -30,8 +30,6 @@ from ._store import (
 )
 
 
-THREADS_ENV = "JAXHYST_BATCH_THREADS"
-"""Set on a local cluster's workers: the cores each worker may use."""
 RESULT = "result.json"
 OUTCOME = "outcome.json"
 LOG = "log.txt"
@@ -62,34 +60,6 @@ class RecordOutcome:
     pid: int
     host: str
     cores: int
-
-
-_pinned = False
-
-
-def _pin_cores() -> None:
-    """On a local cluster's worker, restrict the process to its share of the cores
-    (`THREADS_ENV` cores, by the worker's number), before JAX starts its backend:
-    XLA:CPU sizes its thread pool by the cores the process may run on, and the
-    diagnosis runs as many refits at once as it has cores."""
-    global _pinned
-    if _pinned:
-        return
-    _pinned = True
-    threads = os.environ.get(THREADS_ENV)
-    if not threads or not hasattr(os, "sched_setaffinity"):
-        return
-    try:
-        from distributed import get_worker
-
-        index = int(get_worker().name)
-    except (ImportError, ValueError, TypeError):
-        return
-    cores = sorted(os.sched_getaffinity(0))
-    count = min(int(threads), len(cores))
-    start = (index * count) % len(cores)
-    chosen = [cores[(start + k) % len(cores)] for k in range(count)]
-    os.sched_setaffinity(0, chosen)
 
 
 def _has_matplotlib() -> bool:
@@ -152,7 +122,6 @@ def run_record(task: RecordTask) -> RecordOutcome:
     `error.txt`; a crash inside jaxhyst is a failed outcome with the traceback in
     `log.txt`. Only the death of the process loses the attempt (the batch retries
     it)."""
-    _pin_cores()
     from .._cli._main import main
 
     started = time.perf_counter()

@@ -2,6 +2,7 @@
 resumes, retries records whose worker died, writes one summary."""
 
 import argparse
+import sys
 
 from .._batch import (
     BatchInterrupted,
@@ -12,7 +13,7 @@ from .._batch import (
     write_summary,
 )
 from .._batch._summary import INDEX, SUMMARY
-from ._options import positive_int
+from ._options import PROG, positive_int
 
 
 def add_parser(subparsers) -> None:
@@ -125,6 +126,12 @@ def run(args: argparse.Namespace) -> int:
             progress=not args.quiet,
         )
     except BatchInterrupted as stop:
+        done = sum(row.status == "done" for row in stop.result.rows)
+        print(
+            f"{PROG}: batch interrupted: {done} of {len(stop.result.rows)} records "
+            "done and kept; run the same command again to finish the rest",
+            file=sys.stderr,
+        )
         print(f"wrote {stop.result.summary}")
         print(f"wrote {stop.result.index}")
         return 130
