@@ -20,6 +20,8 @@ import time
 import traceback
 from pathlib import Path
 
+import jax
+
 from ._store import (
     DONE,
     ERROR,
@@ -139,6 +141,11 @@ def run_record(task: RecordTask) -> RecordOutcome:
             except Exception:
                 traceback.print_exc()
                 status = None
+            finally:
+                # A worker runs record after record: release the compiled programs
+                # (each holds memory maps, and thousands of them pass the kernel's
+                # limit); the next record loads its own from the persistent cache.
+                jax.clear_caches()
     log_text = log_path.read_text(encoding="utf-8", errors="replace")
     if status == 0:
         error = ""
