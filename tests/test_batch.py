@@ -282,3 +282,37 @@ def test_an_interrupted_batch_resumes(tmp_path, cache):
     assert f"{len(finished)} already done" in stdout
     assert {n: _outcome(out, n) for n in finished} == kept
     assert [row["status"] for row in _summary(out).values()] == ["done"] * 3
+
+
+def test_batch_help_and_scheduler_with_workers_refused(tmp_path, capsys):
+    assert main(["batch", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--scheduler ADDRESS" in text and "--retries N" in text
+    _recording(tmp_path / "a.csv")
+    manifest = _manifest(tmp_path, ["a.csv,fit"], "recording,command")
+    argv = ["batch", str(manifest), "--out", str(tmp_path / "out")]
+    assert main([*argv, "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"]) == 2
+    assert "drop it with --scheduler" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_existing_cluster_runs_the_same_records(tmp_path, cache, monkeypatch):
+    import distributed
+
+    import jaxhyst as jh
+
+    monkeypatch.setenv("JAXHYST_CACHE_DIR", str(cache))
+    _recording(tmp_path / "a.csv")
+    manifest = _manifest(tmp_path, ["a.csv,fit,4,2"], f"recording,command,{TINY}")
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        result = jh.batch(
+            manifest,
+            tmp_path / "out",
+            cluster=jh.SchedulerAddress(cluster.scheduler_address),
+            progress=False,
+        )
+    assert (result.ran, result.skipped, result.failed) == (1, 0, 0)
+    assert [row.status for row in result.rows] == ["done"]
+    assert (tmp_path / "out" / "records" / "a" / "done").exists()
