@@ -36,6 +36,12 @@ from . import (
     report as report,
     synthetic as synthetic,
 )
+from ._batch import (
+    BatchResult as BatchResult,
+    LocalWorkers as LocalWorkers,
+    SchedulerAddress as SchedulerAddress,
+    batch as batch,
+)
 from ._cache import enable_compilation_cache as enable_compilation_cache
 from ._compensate import (
     AbstractCompensationMethod as AbstractCompensationMethod,

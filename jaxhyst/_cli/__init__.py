@@ -1,7 +1,7 @@
 """The `jaxhyst` command line.
 
 One module per command (`_simulate`, `_fit`, `_diagnose`, `_evaluate`,
-`_compensate`, `_demo`), each a pair of functions: `add_parser(subparsers)` declares
+`_compensate`, `_batch`, `_demo`), each a pair of functions: `add_parser(subparsers)` declares
 its options and sets `run=run`, and `run(args) -> int` does the work by calling the
 library, then prints and writes. `_choices` is the one table from option values
 (`--model`, `--signal`, `--preset`) to objects; `_options` holds the options and

@@ -22,7 +22,15 @@ from ._words import SOURCES, cli_words
 # The commands in the order `jaxhyst --help` lists them; each is the module
 # `jaxhyst._cli._<name>`, imported only when its parser is needed (a command line
 # naming one command imports that one: `jaxhyst fit` does not import the diagnosis).
-COMMANDS = ("simulate", "fit", "diagnose", "evaluate", "compensate", "demo")
+COMMANDS = (
+    "simulate",
+    "fit",
+    "diagnose",
+    "evaluate",
+    "compensate",
+    "batch",
+    "demo",
+)
 
 
 class UsageError(Exception):
