@@ -124,7 +124,9 @@ def run_record(task: RecordTask) -> RecordOutcome:
     `error.txt`; a crash inside jaxhyst is a failed outcome with the traceback in
     `log.txt`. Only the death of the process loses the attempt (the batch retries
     it)."""
-    from .._cli._main import main
+    from .._cli._main import main, store_programs
+
+    store_programs()
 
     started = time.perf_counter()
     out = Path(task.out)

@@ -173,10 +173,11 @@ def quick_compile_flags(argv: Sequence[str], environ: dict[str, str]) -> str | N
 PROGRAM_STORE_VAR = "JAXHYST_PROGRAM_STORE"
 
 
-def _store_programs() -> None:
+def store_programs() -> None:
     """Keep exported programs beside the compilation cache (`_programs`), unless
-    the cache is off or `JAXHYST_PROGRAM_STORE=0`: a process of its own, so tests
-    that call `main` in-process never see it."""
+    the cache is off or `JAXHYST_PROGRAM_STORE=0`. For processes that run commands
+    only (the console script, a batch's workers): tests that call `main` in-process
+    never see it."""
     if os.environ.get(PROGRAM_STORE_VAR, "1") == "0":
         return
     folder = enable_compilation_cache()
@@ -202,7 +203,7 @@ def script() -> NoReturn:
     flags = quick_compile_flags(sys.argv[1:], dict(os.environ))
     if flags is not None:
         os.environ["XLA_FLAGS"] = flags
-    _store_programs()
+    store_programs()
     status = main()
     try:
         sys.stdout.flush()

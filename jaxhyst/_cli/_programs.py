@@ -326,13 +326,19 @@ def _stored(store: _Store, name: str, program):
 
 
 _JIT_TYPE: type = type(eqx.filter_jit(lambda: None))
+_installed = False
 
 
 def install_program_store(folder: Path) -> None:
     """Look every module-level `eqx.filter_jit` program of jaxhyst up in `folder`
-    (created if missing) before tracing it, for the rest of this process."""
+    (created if missing) before tracing it, for the rest of this process (a second
+    call changes nothing)."""
+    global _installed
+    if _installed:
+        return
     folder.mkdir(mode=0o700, parents=True, exist_ok=True)
     store = _Store(folder)
+    _installed = True
     wrapped: dict[int, Callable] = {}
     for module_name, module in list(sys.modules.items()):
         if module_name.split(".")[0] != "jaxhyst" or module is None:
