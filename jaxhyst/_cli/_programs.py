@@ -134,6 +134,10 @@ def _structure(value, leaves: list) -> tuple:
         return (kind, tuple(_structure(item, leaves) for item in value))
     if isinstance(value, dict) and type(value) is dict:
         return ("dict", tuple((k, _structure(v, leaves)) for k, v in value.items()))
+    if isinstance(value, frozenset) and all(
+        v is None or isinstance(v, (bool, int, float, str)) for v in value
+    ):
+        return ("value", value)
     if isinstance(value, eqx.Module):
         named = _named(type(value))
         if named is None:
@@ -202,6 +206,8 @@ class _Store:
         self.folder = folder
         self.fingerprint = _fingerprint()
         self.loaded: dict[str, tuple[Callable, tuple] | None] = {}
+        # The entries by the in-process form of their arguments (see `_stored`).
+        self.seen: dict[tuple, tuple[Callable, tuple] | None] = {}
         self.lock = threading.Lock()
 
     def key(self, name: str, args, kwargs) -> str:
@@ -308,16 +314,34 @@ def _stored(store: _Store, name: str, program):
 
     @functools.wraps(function)
     def run(*args, **kwargs):
-        try:
-            key = store.key(name, args, kwargs)
-        except _Unkeyable:
-            return program(*args, **kwargs)
         dynamic, static = eqx.partition((args, kwargs), eqx.is_array)
         leaves, treedef = jax.tree.flatten(dynamic)
         if any(isinstance(leaf, Tracer) for leaf in leaves):
             return program(*args, **kwargs)  # called inside another program
-        entry = store.program(name, function, key, leaves, treedef, static)
-        if entry is None:
+        # In this process, the arguments as `eqx.filter_jit` itself tells its
+        # programs apart (the static part by equality, the arrays by shape and
+        # dtype) name the program already looked up; the durable key is only
+        # described for a new one.
+        static_leaves, static_def = jax.tree.flatten(static)
+        shapes = tuple(
+            (leaf.shape, leaf.dtype, getattr(leaf, "weak_type", False))
+            for leaf in leaves
+        )
+        try:
+            seen = (name, treedef, static_def, tuple(static_leaves), shapes)
+            entry = store.seen.get(seen, _NEW)
+        except TypeError:  # an unhashable static leaf
+            seen, entry = None, _NEW
+        if entry is _NEW:
+            try:
+                key = store.key(name, args, kwargs)
+            except _Unkeyable:
+                entry = None
+            else:
+                entry = store.program(name, function, key, leaves, treedef, static)
+            if seen is not None:
+                store.seen[seen] = entry
+        if not isinstance(entry, tuple):
             return program(*args, **kwargs)
         runner, recipe = entry
         return _rebuild(recipe, iter(runner(*leaves)))
@@ -325,6 +349,7 @@ def _stored(store: _Store, name: str, program):
     return run
 
 
+_NEW = object()
 _JIT_TYPE: type = type(eqx.filter_jit(lambda: None))
 _installed = False
 
