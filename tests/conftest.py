@@ -55,6 +55,13 @@ def _release_compiled_programs():
 # covered in the fast suite by a shorter test (named after the reason) or by a
 # sibling variant. Seconds: the 2-core machine, loaded, session 36.
 SLOW = {
+    "test_mixed_rates.py::test_joint_fit_at_two_rates_recovers_the_truth_as_at_one_rate": (
+        "19 s; two rates are fitted together by the CLI's fit-and-evaluate test, and "
+        "the stacked simulation equals each record alone exactly"
+    ),
+    "test_compensate.py::test_lagging_models_get_a_drive_ahead_of_time[time_shift]": (
+        "21 s; the three stage variants check the same drive ahead of time"
+    ),
     "test_diagnose_several.py::test_command_line_diagnoses_several_files": (
         "276 s; several recordings are diagnosed together in Python by "
         "test_diagnose_several's other tests, and the CLI's diagnose by test_cli"

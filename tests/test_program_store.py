@@ -128,8 +128,9 @@ def test_a_damaged_entry_is_exported_again(tmp_path):
 
 
 def test_the_command_line_fits_the_same_with_and_without_the_store(tmp_path):
-    # Three processes: the store empty (export), the store full (load), the store
-    # off; the fit is the same to the last bit.
+    # Two processes: the store on (every program exported, then run as exported;
+    # loading one from disk: test_a_stored_program_gives_the_plain_programs_result)
+    # and off; the fit is the same to the last bit.
     t = np.arange(1201) / 400.0
     u = np.sin(2 * np.pi * 1.0 * t) * (1 + 0.5 * np.sin(2 * np.pi * 0.3 * t))
     model = jh.PiezoBoucWen.paper_table4(3)
@@ -140,7 +141,7 @@ def test_the_command_line_fits_the_same_with_and_without_the_store(tmp_path):
     recording = tmp_path / "rec.csv"
     jh.Recording(t, u, noisy, name="rec").save(recording)
     results = []
-    for store in ("1", "1", "0"):
+    for store in ("1", "0"):
         out = tmp_path / f"fit{len(results)}.json"
         env = {
             **os.environ,

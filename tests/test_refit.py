@@ -313,3 +313,32 @@ def test_gains_held_at_zero_leave_the_output_and_the_other_slopes_unchanged(whic
 def test_a_model_without_effect_terms_holds_nothing():
     base = jh.BoucWenDamper(25.0, 12.0, 0.1, 9e3, -15.0, 1.0, 0.7, 0.3, 1.5)
     assert base.held_at_zero(["f0"]) is base
+
+
+def test_a_refit_with_non_finite_sensitivities_raises_degenerate_refit(monkeypatch):
+    # Non-finite sensitivity columns at the start (a real shear test with a large
+    # strength loss once took the diagnosis down with "SVD did not converge"): the
+    # refit says why, as the one error the diagnosis catches per candidate.
+    from jaxhyst._diagnose import _refit
+
+    family, start, path, force, weights = _drifting_structural_problem()
+    directions = _refit._residual_directions
+    monkeypatch.setattr(
+        _refit,
+        "_residual_directions",
+        lambda *args: directions(*args) * jnp.nan,
+    )
+    scales = RefitScales(1.0, float(path.t1 - path.t0), {})
+    settings = RefitSettings(20, None, 1)
+    with pytest.raises(_refit.DegenerateRefit, match="offset, trend.*not finite"):
+        refit(
+            family,
+            start,
+            ["offset", "trend"],
+            path,
+            force,
+            weights,
+            jh.RK4(substeps=2),
+            scales,
+            settings,
+        )

@@ -99,8 +99,8 @@ def test_candidate_keys_are_those_of_one_at_a_time_when_a_refit_diverges(
     two_cores, monkeypatch
 ):
     """A candidate's key counts the trials made before it: when an earlier one
-    diverges (no trial), a later one is tried again with the key it would have had
-    one at a time."""
+    fails (diverges: no trial), a later one is tried again with the key it would
+    have had one at a time."""
     keys = {}
     lock = threading.Lock()
 
@@ -117,7 +117,9 @@ def test_candidate_keys_are_those_of_one_at_a_time_when_a_refit_diverges(
             keys.setdefault(score.effect, []).append(
                 tuple(np.asarray(jax.random.key_data(key)))
             )
-        return None if score.effect == "first" else Trial(score)
+        if score.effect == "first":
+            return _diagnose._Failed("the refitted model diverged")
+        return Trial(score)
 
     scores = [_score("first"), _score("second"), _score("third")]
     monkeypatch.setattr(_diagnose, "refit_choice", lambda *a: (scores, False))
