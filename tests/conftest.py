@@ -55,6 +55,14 @@ def _release_compiled_programs():
 # covered in the fast suite by a shorter test (named after the reason) or by a
 # sibling variant. Seconds: the 2-core machine, loaded, session 36.
 SLOW = {
+    "test_identify.py::test_two_stage_corrected_fit_finds_asymmetry": (
+        "16 s; the two stages run in test_cli's corrected fit, and an asymmetry is "
+        "found by test_diagnose's quick positive"
+    ),
+    "test_diagnose.py::test_clean_recording_flags_nothing": (
+        "14 s; clean records stay silent in the structural and damper quick tests "
+        "and in the CLI's diagnosis contract test"
+    ),
     "test_mixed_rates.py::test_joint_fit_at_two_rates_recovers_the_truth_as_at_one_rate": (
         "19 s; two rates are fitted together by the CLI's fit-and-evaluate test, and "
         "the stacked simulation equals each record alone exactly"
