@@ -161,3 +161,12 @@ def test_the_command_line_fits_the_same_with_and_without_the_store(tmp_path):
     for other in results[1:]:
         assert other["parameters"] == results[0]["parameters"]
         assert other["metrics"] == results[0]["metrics"]
+
+
+def test_jax_options_that_change_a_trace_change_the_key(tmp_path):
+    store = _Store(tmp_path)
+    args = (jh.PiezoBoucWen.paper_table4(3), jnp.zeros(3))
+    before = store.key("p", args, {})
+    with jax.default_matmul_precision("highest"):
+        assert store.key("p", args, {}) != before
+    assert store.key("p", args, {}) == before

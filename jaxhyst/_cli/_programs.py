@@ -199,6 +199,22 @@ def _fingerprint() -> str:
     return digest.hexdigest()
 
 
+# JAX options that do not change a traced program: caching, logging, compiling
+# (the compilation cache keys compile options itself).
+_NOT_TRACING = ("cache", "log", "explain", "compil", "traceback")
+
+
+def _tracing_options() -> str:
+    """JAX's configuration options that may change what a program traces to (the
+    default matmul precision, rank promotion, ...), as one string."""
+    values = jax.config.values
+    return ";".join(
+        f"{name}={values[name]!r}"
+        for name in sorted(values)
+        if not any(word in name for word in _NOT_TRACING)
+    )
+
+
 class _Store:
     """The folder of exported programs and the programs loaded in this process."""
 
@@ -216,6 +232,7 @@ class _Store:
             name,
             jax.default_backend(),
             str(jax.dtypes.canonicalize_dtype(np.float64)),  # x64 on or off
+            _tracing_options(),
         ]
         _describe((args, kwargs), parts)
         return hashlib.sha256("\x1f".join(parts).encode()).hexdigest()[:40]
