@@ -511,6 +511,20 @@ def test_a_stiffening_outside_the_catalogue_is_reported_as_unexplained():
     assert diagnosis.to_dict()["unexplained"][0]["resembles"] == left.resembles
 
 
+def _drift_refitted_on_a_clean_record():
+    """A quick diagnosis of a clean record and its first round's drift score (a
+    test that forces drift to a refit patches `Drift.score_screens` first)."""
+    x = _protocol()
+    clean, _ = _record(x, _truth(x), seed=1)
+    diagnosis = jh.diagnose(
+        clean,
+        key=jax.random.key(0),
+        family=jh.families.StructuralFamily(),
+        swarm=jh.MPSO(num_particles=48, num_iterations=60),
+    )
+    return diagnosis, next(s for s in diagnosis.rounds[0] if s.effect == "drift")
+
+
 def test_an_effect_the_score_cannot_screen_is_refitted_and_judged_held_out(
     monkeypatch,
 ):
@@ -523,15 +537,7 @@ def test_an_effect_the_score_cannot_screen_is_refitted_and_judged_held_out(
     assert not jh.families.DamperFamily().effect("driver_lag").score_screens()
     assert all(e.score_screens() for e in jh.families.StructuralFamily().catalogue)
     monkeypatch.setattr(Drift, "score_screens", lambda self: False)
-    x = _protocol()
-    clean, sigma = _record(x, _truth(x), seed=1)
-    diagnosis = jh.diagnose(
-        clean,
-        key=jax.random.key(0),
-        family=jh.families.StructuralFamily(),
-        swarm=jh.MPSO(num_particles=48, num_iterations=60),
-    )
-    drift = next(s for s in diagnosis.rounds[0] if s.effect == "drift")
+    diagnosis, drift = _drift_refitted_on_a_clean_record()
     assert not drift.significant
     assert drift.validation is not None and not drift.validation.accepted
     assert drift.rejection is not None and drift.rejection != "not significant"
@@ -560,15 +566,7 @@ def test_a_numerically_degenerate_refit_rejects_its_candidate_not_the_diagnosis(
         return svd(*args, **kwargs)
 
     monkeypatch.setattr(np.linalg, "svd", failing)
-    x = _protocol()
-    clean, _ = _record(x, _truth(x), seed=1)
-    diagnosis = jh.diagnose(
-        clean,
-        key=jax.random.key(0),
-        family=jh.families.StructuralFamily(),
-        swarm=jh.MPSO(num_particles=48, num_iterations=60),
-    )
-    drift = next(s for s in diagnosis.rounds[0] if s.effect == "drift")
+    diagnosis, drift = _drift_refitted_on_a_clean_record()
     assert drift.rejection is not None
     assert "numerically degenerate" in drift.rejection
     assert diagnosis.findings == []

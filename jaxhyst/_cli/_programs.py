@@ -61,13 +61,11 @@ def _named(value) -> str | None:
     qualname = getattr(value, "__qualname__", None)
     if not module or not qualname or "<" in qualname:
         return None
+    named = f"{module}:{qualname}"
     try:
-        found = importlib.import_module(module)
-        for part in qualname.split("."):
-            found = getattr(found, part)
+        return named if _import(named) is value else None
     except (ImportError, AttributeError):
         return None
-    return f"{module}:{qualname}" if found is value else None
 
 
 def _describe(value, out: list[str]) -> None:
