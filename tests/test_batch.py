@@ -147,6 +147,14 @@ def test_manifest_options_labels_and_names(tmp_path):
     assert second.labels == (("specimen", "S2"),)
 
 
+def test_a_repeatable_option_takes_several_values_and_a_switch_off_is_absent(tmp_path):
+    _recording(tmp_path / "a.csv")
+    manifest = read_manifest(
+        _manifest(tmp_path, ["a.csv,fit,u;t,no"], "recording,command,input,no_time")
+    )
+    assert manifest.records[0].options == ("--input", "u", "--input", "t")
+
+
 def test_a_live_lock_is_refused_and_a_stale_one_taken_over(tmp_path):
     (tmp_path / LOCK).write_text(f"{os.getpid()} {os.uname().nodename}\n")
     with pytest.raises(BatchLockedError, match="being written by batch pid"):

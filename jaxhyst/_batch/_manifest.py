@@ -10,12 +10,16 @@ other column is a label that the summary keeps. Each row's options are parsed by
 command's own parser, so a bad value is refused here, with its row.
 """
 
-import argparse
 import csv
 import dataclasses
 import os
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+
+if TYPE_CHECKING:
+    from .._cli._main import CommandParser, DeclaredOption
 
 
 COMMANDS = ("diagnose", "fit")
@@ -69,25 +73,12 @@ class Manifest:
     label_columns: tuple[str, ...]
 
 
-def _parser(command: str) -> argparse.ArgumentParser:
-    """The `jaxhyst COMMAND` parser (the command line's own)."""
-    from .._cli._main import build_parser
-
-    parser = build_parser([command])
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            return action.choices[command]
-    raise AssertionError(f"no parser for {command}")  # pragma: no cover
-
-
-def _long_options(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
-    """The parser's long options by column name (`--no-time` -> `no_time`)."""
-    out = {}
-    for action in parser._actions:
-        for string in action.option_strings:
-            if string.startswith("--") and string not in ("--help", "--version"):
-                out[string[2:].replace("-", "_")] = action
-    return out
+def _long_options(parser: "CommandParser") -> "dict[str, DeclaredOption]":
+    """A command's long options by column name (`--no-time` -> `no_time`)."""
+    return {
+        flag[2:].replace("-", "_"): option
+        for flag, option in parser.declared_options.items()
+    }
 
 
 def _safe_name(text: str) -> str:
@@ -96,14 +87,17 @@ def _safe_name(text: str) -> str:
 
 
 def _options(
-    where: str, command: str, cells: dict[str, str], actions: dict[str, argparse.Action]
+    where: str,
+    command: str,
+    cells: dict[str, str],
+    declared: "dict[str, DeclaredOption]",
 ) -> tuple[str, ...]:
     options: list[str] = []
     for column, value in cells.items():
         flag = "--" + column.replace("_", "-")
-        action = actions[column]
+        option = declared[column]
         value = value.strip()
-        if action.nargs == 0:
+        if option.switch:
             if value.lower() not in _TRUE + _FALSE:
                 raise ManifestError(
                     f"{where}: column {column!r} is a switch of 'jaxhyst {command}'; "
@@ -114,8 +108,7 @@ def _options(
         elif value:
             # A repeatable option (`input`) takes several values separated by
             # spaces or semicolons: `u v` is `--input u --input v`.
-            repeat = isinstance(action, argparse._AppendAction)
-            for each in re.split(r"[;\s]+", value) if repeat else [value]:
+            for each in re.split(r"[;\s]+", value) if option.repeat else [value]:
                 options += [flag, each]
     return tuple(options)
 
@@ -159,7 +152,9 @@ def read_manifest(path: str | os.PathLike) -> Manifest:
             f"manifest {str(path)!r} has a header and no records; add one row per "
             "recording."
         )
-    parsers = {command: _parser(command) for command in COMMANDS}
+    from .._cli._main import command_parser
+
+    parsers = {command: command_parser(command) for command in COMMANDS}
     actions = {command: _long_options(parsers[command]) for command in COMMANDS}
     all_options = set().union(*(set(a) for a in actions.values()))
     labels = tuple(

@@ -2,6 +2,7 @@
 turns user errors into one line on stderr."""
 
 import argparse
+import dataclasses
 import importlib
 import importlib.metadata
 import os
@@ -42,9 +43,48 @@ class UsageError(Exception):
         self.prog = prog
 
 
-class _Parser(argparse.ArgumentParser):
+@dataclasses.dataclass(frozen=True)
+class DeclaredOption:
+    """A long option as a command declares it: its flag (`--no-time`), whether it is
+    a switch (takes no value) and whether it may be repeated (`--input u --input v`)."""
+
+    flag: str
+    switch: bool
+    repeat: bool
+
+
+class CommandParser(argparse.ArgumentParser):
     """An ArgumentParser that raises instead of printing usage and exiting, so that
-    `main` reports every error in the same one-line form."""
+    `main` reports every error in the same one-line form, and that keeps what was
+    declared on it: its long options and its commands' parsers."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.declared_options: dict[str, DeclaredOption] = {}
+        self.commands: dict[str, CommandParser] = {}
+
+    def _declare(self, action: argparse.Action, kwargs: dict) -> argparse.Action:
+        for flag in action.option_strings:
+            if flag.startswith("--") and flag not in ("--help", "--version"):
+                self.declared_options[flag] = DeclaredOption(
+                    flag=flag,
+                    switch=action.nargs == 0,
+                    repeat=kwargs.get("action") in ("append", "extend"),
+                )
+        return action
+
+    def add_argument(self, *args, **kwargs):
+        return self._declare(super().add_argument(*args, **kwargs), kwargs)
+
+    def add_argument_group(self, *args, **kwargs):
+        group = super().add_argument_group(*args, **kwargs)
+        add = group.add_argument
+
+        def add_and_declare(*args, **kwargs):
+            return self._declare(add(*args, **kwargs), kwargs)
+
+        group.add_argument = add_and_declare
+        return group
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(self.prog, message)
@@ -68,12 +108,12 @@ def _named_command(argv: Sequence[str]) -> str | None:
     return argv[0] if argv and argv[0] in COMMANDS else None
 
 
-def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> CommandParser:
     """The `jaxhyst` parser. Given the command line it will parse, and that names a
     command, it declares that command only (importing only its module); otherwise
     every command (for `--help`, and for the error on an unknown one)."""
     named = None if argv is None else _named_command(argv)
-    parser = _Parser(
+    parser = CommandParser(
         prog=PROG,
         description=(
             "Bouc-Wen hysteresis models in JAX: simulate, identify, diagnose. "
@@ -88,7 +128,14 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS if named is None else (named,):
         importlib.import_module(f"{__package__}._{name}").add_parser(subparsers)
+        parser.commands[name] = subparsers.choices[name]
     return parser
+
+
+def command_parser(command: str) -> CommandParser:
+    """The parser of `jaxhyst COMMAND` alone; its `declared_options` are the command's
+    long options."""
+    return build_parser([command]).commands[command]
 
 
 _PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
