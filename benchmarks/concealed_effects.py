@@ -93,7 +93,10 @@ def generate_case(spec, index, args) -> tuple[dict[str, Any], Any, Any]:
 
 
 def diagnose_cases(generated, args) -> None:
-    """The cases diagnosed in one batch (`--model piezo`), each record updated."""
+    """The cases diagnosed in one batch (`--model piezo`), each record updated
+    (nothing on --dry-run)."""
+    if args.dry_run:
+        return
     diagnoses = common.diagnose_suite(args, "piezo", generated)
     for (result, _, _), diagnosis in zip(generated, diagnoses, strict=True):
         data = diagnosis.json
