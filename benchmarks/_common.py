@@ -1,5 +1,6 @@
 """What the benchmark scripts share: progress logging, the machine and versions,
-command-line options, JSON results, figure files and the synthetic suites' scoring.
+command-line options, JSON results, figure files, the synthetic suites' scoring, and
+the batch (`jh.batch`) in which the diagnosis suites diagnose their records.
 
 The scripts are run as `python benchmarks/<script>.py`, which puts this folder on
 `sys.path`, so they import it as `from _common import ...` (a test that imports a
@@ -20,10 +21,10 @@ import subprocess
 import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 
 START = time.perf_counter()
@@ -416,7 +417,7 @@ def add_suite_options(
 ):
     """--cases (default `cases`; None: 3, or 1 with --quick), --quick (`quick`: what
     it runs), --json, --seed, --dry-run, --progress and (with `only_example`) --only
-    of the synthetic suites."""
+    of the synthetic suites, and the batch's --workers and --out."""
     parser.add_argument(
         "--cases",
         type=int,
@@ -432,8 +433,12 @@ def add_suite_options(
         help=f"generate {generates}, without diagnosing",
     )
     parser.add_argument(
-        "--progress", action="store_true", help="pass progress=True to diagnose"
+        "--progress",
+        action="store_true",
+        help="show the batch's progress line (each record's own progress goes to "
+        "its log.txt)",
     )
+    add_batch_options(parser)
     if only_example is not None:
         parser.add_argument(
             "--only",
@@ -467,24 +472,21 @@ def case_record(index: int, spec: dict, case, generated: float, **extra) -> dict
     }
 
 
-def diagnosed(case, run: Callable[[], Any]) -> tuple[Any, dict]:
-    """`run()`, the diagnosis of `case`, timed; returns the diagnosis and what every
-    suite records of it (the named effects, exact or not, the final residual, what
-    it reports as unexplained)."""
-    start = time.perf_counter()
-    diagnosis = run()
-    wall = time.perf_counter() - start
-    named = [str(f.effect) for f in diagnosis.findings]
-    seconds = getattr(diagnosis, "seconds", None)
-    final = float(diagnosis.final_rmse)
-    return diagnosis, {
+def diagnosed(case, diagnosis: "BatchDiagnosis") -> dict:
+    """What every suite records of the batch's diagnosis of `case`: the named
+    effects, exact or not, the final residual, the diagnosis's own seconds and the
+    record's on its worker, what it reports as unexplained."""
+    data = diagnosis.json
+    named = [str(f["effect"]) for f in data["findings"]]
+    final = float(data["final"]["rmse"])
+    return {
         "named": named,
         "exact": set(named) == set(case.effects),
         "final_rmse": final,
         "final_over_sigma": final / case.sigma,
-        "seconds": float(seconds) if seconds is not None else wall,
-        "wall_seconds": wall,
-        "unexplained": [u.description for u in diagnosis.unexplained],
+        "seconds": diagnosis.seconds,
+        "wall_seconds": diagnosis.wall_seconds,
+        "unexplained": [u["description"] for u in data["unexplained"]],
     }
 
 
@@ -660,11 +662,200 @@ def case_line(
 
 def suite_config(args: argparse.Namespace, **extra) -> dict:
     """The settings every suite records (seeds per configuration, root seed, quick,
-    dry run) and the suite's own."""
+    dry run, batch workers) and the suite's own."""
     return {
         "cases_per_configuration": args.cases,
         **extra,
         "seed": args.seed,
         "quick": args.quick,
         "dry_run": args.dry_run,
+        "workers": args.workers,
     }
+
+
+# ---------------------------------------------------- the suites' batch of diagnoses
+
+
+def _workers(text: str) -> int:
+    count = int(text)
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"{text}: pass 1 or more")
+    return count
+
+
+def add_batch_options(parser: argparse.ArgumentParser) -> None:
+    """--workers and --out of the suites that diagnose their records in a batch."""
+    parser.add_argument(
+        "--workers",
+        type=_workers,
+        default=2,
+        metavar="N",
+        help="batch workers, one thread each (2)",
+    )
+    parser.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="keep the batch folder here: recordings/, manifest.csv, records/NAME/ "
+        "(each diagnosis's JSON, report and log), summary.csv; a rerun on DIR skips "
+        "the records already done (default: a temporary folder, deleted)",
+    )
+
+
+class BatchRecord(NamedTuple):
+    """A recording to diagnose in a batch: its `name` (file stem and record folder),
+    the `recording`, the diagnosis `key` (a threefry key, as `jax.random.key`
+    makes) and `labels` (columns of the manifest and the summary)."""
+
+    name: str
+    recording: Any
+    key: Any
+    labels: dict[str, str]
+
+
+class BatchDiagnosis(NamedTuple):
+    """A record's diagnosis from the batch: `json` as `jaxhyst diagnose --json`
+    writes it, `seconds` the diagnosis's own time (its `timing.total_s`: what
+    `Diagnosis.seconds` was in the suites' earlier in-process runs) and
+    `wall_seconds` the record's time on its worker (the summary's `seconds`: reading
+    the file, the diagnosis, its JSON and report)."""
+
+    json: dict
+    seconds: float
+    wall_seconds: float
+
+
+def key_seed(key) -> int:
+    """The `--seed` whose key is `key`. The command line's key of a seed is
+    `jax.random.key(seed)`, which (64-bit JAX, the threefry generator) holds the
+    seed's 64 bits as two 32-bit words, so every threefry key is some seed's."""
+    import jax
+    import numpy as np
+
+    data = np.asarray(jax.random.key_data(key))
+    high, low = (int(word) for word in data.reshape(-1))
+    bits = high << 32 | low
+    seed = bits - 2**64 if bits >= 2**63 else bits
+    if not np.array_equal(jax.random.key_data(jax.random.key(seed)), data):
+        raise ValueError(
+            f"{script_name()}: key {data} is no seed's key (64-bit JAX and the "
+            "threefry generator are needed)"
+        )
+    return seed
+
+
+def diagnose_batch(
+    records: list[BatchRecord], options: dict[str, str], args: argparse.Namespace
+) -> list[BatchDiagnosis]:
+    """Diagnose `records` as `jaxhyst diagnose` does, in one `jh.batch` on
+    `args.workers` workers of one thread, in `args.out` (else a temporary folder):
+    each recording as a CSV file under `recordings/` (written to every bit), a
+    manifest (command diagnose, the recording's columns, the seed of its key,
+    `options` such as {"model": "bouc-wen"}, its labels); returns each record's
+    diagnosis, in order. Exits naming the records that failed."""
+    import tempfile
+
+    if args.out is not None:
+        return _diagnose_in(Path(args.out), records, options, args)
+    with tempfile.TemporaryDirectory(prefix=f"{script_name()}-") as folder:
+        return _diagnose_in(Path(folder), records, options, args)
+
+
+def diagnose_suite(
+    args: argparse.Namespace, model: str, generated: list[tuple[dict, Any, Any]]
+) -> list[BatchDiagnosis]:
+    """A synthetic suite's `generated` cases, (record, case, diagnosis key) each,
+    diagnosed by `diagnose --model MODEL` in one batch (nothing on --dry-run): each
+    record updated with `diagnosed`; returns the diagnoses in order."""
+    if args.dry_run:
+        return []
+    records = [
+        BatchRecord(
+            f"{r['index']:03d}_{effects_label(case.effects)}_{case.noise}",
+            case.recording,
+            key,
+            {"truth": effects_label(case.effects, none=""), "noise": case.noise},
+        )
+        for r, case, key in generated
+    ]
+    diagnoses = diagnose_batch(records, {"model": model}, args)
+    for (r, case, _), diagnosis in zip(generated, diagnoses, strict=True):
+        r.update(diagnosed(case, diagnosis))
+    return diagnoses
+
+
+def _columns(recording) -> dict[str, str]:
+    """The manifest cells that read `recording`'s saved columns back."""
+    names = (*recording.input_names, recording.output_name)
+    for name in names:
+        if not name or any(c.isspace() or c == ";" for c in name):
+            raise ValueError(
+                f"{script_name()}: column {name!r} of {recording.name!r}: a manifest "
+                "cell cannot name it (spaces and semicolons separate inputs)"
+            )
+    return {"input": " ".join(recording.input_names), "output": recording.output_name}
+
+
+def _diagnose_in(
+    folder: Path,
+    records: list[BatchRecord],
+    options: dict[str, str],
+    args: argparse.Namespace,
+) -> list[BatchDiagnosis]:
+    import csv
+    import json
+
+    import jaxhyst as jh
+    from jaxhyst._batch._store import record_folder
+    from jaxhyst._batch._task import RESULT
+
+    (folder / "recordings").mkdir(parents=True, exist_ok=True)
+    rows = []
+    for record in records:
+        path = folder / "recordings" / f"{record.name}.csv"
+        record.recording.save(path, overwrite=True)
+        rows.append(
+            {
+                "recording": path.relative_to(folder).as_posix(),
+                "command": "diagnose",
+                "name": record.name,
+                **_columns(record.recording),
+                "seed": str(key_seed(record.key)),
+                **options,
+                **record.labels,
+            }
+        )
+    header = list(dict.fromkeys(column for row in rows for column in row))
+    manifest = folder / "manifest.csv"
+    with open(manifest, "w", newline="") as file:
+        writer = csv.DictWriter(file, header, restval="")
+        writer.writeheader()
+        writer.writerows(rows)
+    log(f"batch: {len(records)} records on {args.workers} workers in {folder}")
+    start = time.perf_counter()
+    result = jh.batch(
+        manifest,
+        folder,
+        cluster=jh.LocalWorkers(args.workers, 1),
+        progress=args.progress,
+    )
+    log(f"batch: done in {time.perf_counter() - start:.1f} s")
+    failed = [row for row in result.rows if row.status != "done"]
+    if failed:
+        kept = "" if args.out else " (pass --out DIR to keep the records' logs)"
+        raise SystemExit(
+            f"{script_name()}: {len(failed)} of {len(result.rows)} records failed"
+            f"{kept}:\n"
+            + "\n".join(f"  {row.record.name}: {row.error}" for row in failed)
+        )
+    out = []
+    for row in result.rows:
+        data = json.loads((record_folder(folder, row.record.name) / RESULT).read_text())
+        out.append(
+            BatchDiagnosis(
+                json=data,
+                seconds=float(data["timing"]["total_s"]),
+                wall_seconds=float(row.seconds or math.nan),
+            )
+        )
+    return out

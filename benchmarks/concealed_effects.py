@@ -1,11 +1,13 @@
 """Benchmark: does the diagnosis find concealed effects, and only those?
 
-Runs `jaxhyst.diagnose` on the synthetic suite of `jh.synthetic.concealed_recording`:
+Runs `jaxhyst diagnose` on the synthetic suite of `jh.synthetic.concealed_recording`:
 each of the six effects alone under white and coloured noise, a few pairs, and clean
 records (white and coloured) where nothing may be flagged; every case with `--cases`
 seeds. The truth is written in forms that differ from the diagnosis catalogue's
 equations (see `jaxhyst/synthetic/_truth.py`), and each effect changes the output by only
-3-10 noise sigmas.
+3-10 noise sigmas. The records are diagnosed in one `jh.batch` (CSV files and a
+manifest, `--model piezo`, each record's diagnosis key as its `seed`) on `--workers`
+workers of one thread (2); `--out DIR` keeps the batch folder.
 
 Reports
 - exact-set accuracy on the effect cases (the named set equals the concealed set),
@@ -20,6 +22,7 @@ Reports
     python benchmarks/concealed_effects.py --quick        # a smoke run
     python benchmarks/concealed_effects.py --dry-run      # generate only
     python benchmarks/concealed_effects.py --json out.json
+    python benchmarks/concealed_effects.py --quick --out runs/concealed  # keep it
 """
 
 import argparse
@@ -55,19 +58,6 @@ NOISES = ("white", "coloured")
 RESIDUAL_FACTOR = 1.3
 
 
-def _diagnose_function():
-    """`jaxhyst.diagnose`, imported lazily: the diagnosis may not exist yet."""
-    diagnose = getattr(jh, "diagnose", None)
-    if diagnose is not None:
-        return diagnose
-    raise SystemExit(
-        "concealed_effects: jaxhyst.diagnose is not available in this checkout "
-        "(the diagnosis API, jh.diagnose(recording, *, key, model=None, "
-        "progress=False) -> Diagnosis, is not there yet). Run with --dry-run to "
-        "exercise the synthetic suite alone."
-    )
-
-
 def build_cases(seeds: int, noises: tuple[str, ...]) -> list[dict[str, Any]]:
     """The suite: singles and pairs under each noise, and clean records (twice the
     seeds, since a false-alarm rate needs more cases)."""
@@ -87,7 +77,8 @@ def build_cases(seeds: int, noises: tuple[str, ...]) -> list[dict[str, Any]]:
     return cases
 
 
-def run_case(spec, index, args, diagnose) -> dict[str, Any]:
+def generate_case(spec, index, args) -> tuple[dict[str, Any], Any, Any]:
+    """Case `index`'s record, its recording and its diagnosis key."""
     generate_key, diagnose_key = common.case_keys(args.seed, index)
     start = time.perf_counter()
     case = jh.synthetic.concealed_recording(
@@ -98,25 +89,27 @@ def run_case(spec, index, args, diagnose) -> dict[str, Any]:
         noise=spec["noise"],
     )
     generated = time.perf_counter() - start
-    result = common.case_record(index, spec, case, generated)
-    if diagnose is None:
-        return result
-    diagnosis, fields = common.diagnosed(
-        case,
-        lambda: diagnose(case.recording, key=diagnose_key, progress=args.progress),
-    )
-    result.update(
-        fields,
-        # Effects the diagnosis says this record cannot decide on.
-        undecided=sorted(diagnosis.undecided),
-        decided=all(f.decided for f in diagnosis.findings),
-        noise_sigma_estimate=float(getattr(diagnosis, "noise_sigma", math.nan)),
-    )
-    return result
+    return common.case_record(index, spec, case, generated), case, diagnose_key
+
+
+def diagnose_cases(generated, args) -> None:
+    """The cases diagnosed in one batch (`--model piezo`), each record updated
+    (nothing on --dry-run)."""
+    if args.dry_run:
+        return
+    diagnoses = common.diagnose_suite(args, "piezo", generated)
+    for (result, _, _), diagnosis in zip(generated, diagnoses, strict=True):
+        data = diagnosis.json
+        result.update(
+            # Effects the diagnosis says this record cannot decide on.
+            undecided=sorted(data["undecided"]),
+            decided=all(f["decided"] for f in data["findings"]),
+            noise_sigma_estimate=float(data["noise"].get("sigma", math.nan)),
+        )
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     common.add_suite_options(
         parser,
         "1 seed, 12 s at 500 Hz, white noise only for effect cases",
@@ -132,7 +125,6 @@ def main(argv=None) -> int:
     if args.cases < 1:
         parser.error("--cases must be >= 1")
 
-    diagnose = None if args.dry_run else _diagnose_function()
     specs = build_cases(args.cases, ("white",) if args.quick else NOISES)
     env = common.machine_info()
     print(
@@ -140,16 +132,19 @@ def main(argv=None) -> int:
         f"{args.rate:g} Hz; jax {env['versions']['jax']} on {env['devices']}, jaxhyst "
         f"{env['versions']['jaxhyst']}"
     )
-    results = []
-    for index, spec in common.selected(specs, args.only):
-        r = run_case(spec, index, args, diagnose)
-        results.append(r)
-        line = common.case_line(index, len(specs), r, width=26, sizes_width=34)
+    generated = [
+        generate_case(spec, index, args)
+        for index, spec in common.selected(specs, args.only)
+    ]
+    diagnose_cases(generated, args)
+    results = [r for r, _, _ in generated]
+    for r in results:
+        line = common.case_line(r["index"], len(specs), r, width=26, sizes_width=34)
         print(line, flush=True)
 
     config = common.suite_config(args, duration=args.duration, rate=args.rate)
     report = common.suite_report(config, env, results)
-    if diagnose is not None:
+    if not args.dry_run:
         summary = common.score_suite(
             report, EFFECTS, RESIDUAL_FACTOR, effect_cases_only=False
         )

@@ -1,6 +1,6 @@
 """Benchmark: does the MR damper diagnosis find concealed effects, and only those?
 
-Runs `jaxhyst.diagnose(..., family=jaxhyst.families.DamperFamily())` on the
+Runs `jaxhyst diagnose --model mr-damper` (the family `DamperFamily()`) on the
 synthetic damper suite (`jaxhyst.synthetic.damper_recording`): white-noise characterisation
 tests like Dyke's (random displacement and a random piecewise-constant command,
 3004.8 Hz, x in cm, command in V, F in N) with field_dependence, rolloff, offset and
@@ -14,14 +14,17 @@ second-order or rate-limited driver, Spencer's dashpot with an internal spring,
 a warming preload with a wandering zero, valving or side-dependent yield), and
 each effect changes the force by only 4-12 noise sigmas beyond what a refit of the
 base takes up to first order (where its form reaches that far: Spencer's dashpot,
-with c1 >= c0/2, often does not, and the size it reached is reported).
+with c1 >= c0/2, often does not, and the size it reached is reported). The records
+are diagnosed in one `jh.batch` (CSV files and a manifest, each record's diagnosis key
+as its `seed`) on `--workers` workers of one thread (2); `--out DIR` keeps the batch
+folder.
 
 Reports
 - exact-set accuracy on the effect cases (the named set equals the concealed set),
 - the no-finding rate on the clean cases,
 - the fraction of effect cases whose final residual RMS is <= 1.3 sigma (the true
   sigma),
-- the median seconds per recording (the diagnosis only, compilation included),
+- the median seconds per recording (the diagnosis only: its own `timing.total_s`),
 - a confusion matrix: rows the true effect (a pair counts in both rows; "none" for
   clean records), columns the named effect ("none" when nothing was named).
 
@@ -76,7 +79,8 @@ def build_cases(seeds: int, noises: tuple[str, ...]) -> list[dict[str, Any]]:
     return cases
 
 
-def run_case(spec, index, args) -> dict[str, Any]:
+def generate_case(spec, index, args) -> tuple[dict[str, Any], Any, Any]:
+    """Case `index`'s record, its recording and its diagnosis key."""
     generate_key, diagnose_key = common.case_keys(args.seed, index)
     start = time.perf_counter()
     case = damper_recording(
@@ -84,19 +88,7 @@ def run_case(spec, index, args) -> dict[str, Any]:
     )
     generated = time.perf_counter() - start
     result = common.case_record(index, spec, case, generated, forms=case.forms)
-    if args.dry_run:
-        return result
-    diagnosis, fields = common.diagnosed(
-        case,
-        lambda: jh.diagnose(
-            case.recording,
-            key=diagnose_key,
-            family=jh.families.DamperFamily(),
-            progress=args.progress,
-        ),
-    )
-    result.update(fields)
-    return result
+    return result, case, diagnose_key
 
 
 def parse_shard(text: str | None) -> tuple[int, int]:
@@ -138,7 +130,7 @@ def merge(paths: list[str], json_path: str | None) -> int:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     common.add_suite_options(
         parser,
         "1 seed, white noise only for effect cases",
@@ -176,17 +168,20 @@ def main(argv=None) -> int:
         f"{env['python']} on {env['platform']} ({env['cpu_model']}), jax "
         f"{versions['jax']} on {env['devices']}, jaxhyst {versions['jaxhyst']}"
     )
-    results = []
-    for index, spec in common.selected(specs, args.only):
-        if index % parts != part - 1:
-            continue
-        r = run_case(spec, index, args)
-        results.append(r)
-        line = common.case_line(index, len(specs), r, width=28, sizes_width=60)
-        print(line, flush=True)
-    if not results:
+    generated = [
+        generate_case(spec, index, args)
+        for index, spec in common.selected(specs, args.only)
+        if index % parts == part - 1
+    ]
+    if not generated:
         print("no case matched --only / --shard")
         return 1
+    # The damper family is `diagnose --model mr-damper`.
+    common.diagnose_suite(args, "mr-damper", generated)
+    results = [r for r, _, _ in generated]
+    for r in results:
+        line = common.case_line(r["index"], len(specs), r, width=28, sizes_width=60)
+        print(line, flush=True)
 
     config = common.suite_config(args, duration=args.duration, shard=args.shard)
     report = common.suite_report(config, env, results)

@@ -1,10 +1,13 @@
 """Benchmark: on the records people have, does the diagnosis name only what it can
 tell, and say "cannot tell" otherwise?
 
-Runs `jaxhyst.diagnose` on `jh.synthetic.practical_recording` cases: plain drives (one
+Runs `jaxhyst diagnose` on `jh.synthetic.practical_recording` cases: plain drives (one
 sine, two sines summed or in sequence, a switch-on hold then a sine, a short record
 of five periods) x {no effect, each of the six effects alone} x `--cases` seeds,
-under white (or `--noise coloured`) sensor noise. On such records some effects look
+under white (or `--noise coloured`) sensor noise. The records are diagnosed in one
+`jh.batch` (CSV files and a manifest, `--model piezo`, each record's diagnosis key as
+its `seed`) on `--workers` workers of one thread (2); `--out DIR` keeps the batch
+folder. On such records some effects look
 alike (a delay of the drive, a rate dependence and creep on one 1 Hz sine), so a
 right answer is either the exact set or a statement that the record cannot tell.
 
@@ -93,7 +96,8 @@ def _label(effects) -> str:
     return common.effects_label(effects, none="none")
 
 
-def run_case(spec, args) -> dict[str, Any]:
+def generate_case(spec, args) -> tuple[dict[str, Any], Any, Any]:
+    """The case's record, its recording and its diagnosis key."""
     excitation, duration = EXCITATIONS[spec["excitation"]]
     # The keys of the seed, not of the case: shared by every excitation and effect,
     # so that a seed's records share their base model and noise level.
@@ -120,32 +124,49 @@ def run_case(spec, args) -> dict[str, Any]:
         "truth": case.truth_description,
         "generate_seconds": time.perf_counter() - start,
     }
+    return result, case, diagnose_key
+
+
+def diagnose_cases(generated, args) -> None:
+    """The cases diagnosed in one batch (`--model piezo`), each record updated."""
     if args.dry_run:
-        return result
-    start = time.perf_counter()
-    diagnosis = jh.diagnose(case.recording, key=diagnose_key, progress=args.progress)
-    wall = time.perf_counter() - start
-    named = frozenset(diagnosis.effects)
-    undecided = frozenset(diagnosis.undecided)
-    final = float(diagnosis.final_rmse)
-    result.update(
-        named=list(diagnosis.effects),
-        undecided=sorted(undecided),
-        advice=[
+        return
+    records = [
+        common.BatchRecord(
+            f"{i:03d}_{r['excitation']}_{_label(r['effects'])}_seed{r['seed']}",
+            case.recording,
+            key,
             {
-                "separates": list(a.separates),
-                "input": a.input,
-                "difference_sigma": float(a.difference_sigma),
-            }
-            for a in diagnosis.advice
-        ],
-        outcome=classify(frozenset(case.effects), named, undecided),
-        final_rmse=final,
-        final_over_sigma=final / case.sigma,
-        seconds=float(diagnosis.seconds),
-        wall_seconds=wall,
-    )
-    return result
+                "excitation": r["excitation"],
+                "truth": common.effects_label(r["effects"], none=""),
+                "case_seed": str(r["seed"]),
+            },
+        )
+        for i, (r, case, key) in enumerate(generated, start=1)
+    ]
+    diagnoses = common.diagnose_batch(records, {"model": "piezo"}, args)
+    for (result, case, _), diagnosis in zip(generated, diagnoses, strict=True):
+        data = diagnosis.json
+        named = [str(f["effect"]) for f in data["findings"]]
+        undecided = frozenset(data["undecided"])
+        final = float(data["final"]["rmse"])
+        result.update(
+            named=named,
+            undecided=sorted(undecided),
+            advice=[
+                {
+                    "separates": list(a["separates"]),
+                    "input": a["input"],
+                    "difference_sigma": float(a["difference_sigma"]),
+                }
+                for a in data["advice"]
+            ],
+            outcome=classify(frozenset(case.effects), frozenset(named), undecided),
+            final_rmse=final,
+            final_over_sigma=final / case.sigma,
+            seconds=diagnosis.seconds,
+            wall_seconds=diagnosis.wall_seconds,
+        )
 
 
 def totals(results) -> dict[str, dict[str, int]]:
@@ -258,10 +279,10 @@ def main(argv=None) -> int:
         f"{args.rate:g} Hz, {args.noise} noise; jax {env['versions']['jax']} on "
         f"{env['devices']}, jaxhyst {env['versions']['jaxhyst']}"
     )
-    results = []
-    for i, spec in enumerate(specs, start=1):
-        r = run_case(spec, args)
-        results.append(r)
+    generated = [generate_case(spec, args) for spec in specs]
+    diagnose_cases(generated, args)
+    results = [r for r, _, _ in generated]
+    for i, r in enumerate(results, start=1):
         _print_case(i, len(specs), r)
 
     config = {
@@ -278,6 +299,7 @@ def main(argv=None) -> int:
         "seed": args.seed,
         "quick": args.quick,
         "dry_run": args.dry_run,
+        "workers": args.workers,
     }
     report = common.suite_report(config, env, results)
     if not args.dry_run:

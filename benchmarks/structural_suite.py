@@ -1,6 +1,6 @@
 """Benchmark: does the structural diagnosis find concealed effects, and only those?
 
-Runs `jaxhyst.diagnose(..., family=jaxhyst.families.StructuralFamily())` on the
+Runs `jaxhyst diagnose --model bouc-wen` (the family `StructuralFamily()`) on the
 synthetic structural suite (`jaxhyst.synthetic.structural_recording`): quasi-static
 tests of a Bouc-Wen element (x in mm, F in kN, pseudo time t = sample index) with
 each of the four effects alone under white and coloured noise, the pairs
@@ -9,7 +9,9 @@ each of the four effects alone under white and coloured noise, the pairs
 nothing may be named. Protocols are mixed: half the cases run the stepwise cyclic
 protocol (ATC-24 / FEMA 461), half the earthquake-like history. The truth is
 written in forms that differ from the catalogue's (`StructuralBoucWen`), and each
-effect changes the force by only 4-12 noise sigmas.
+effect changes the force by only 4-12 noise sigmas. The records are diagnosed in one
+`jh.batch` (CSV files and a manifest, each record's diagnosis key as its `seed`) on
+`--workers` workers of one thread (2); `--out DIR` keeps the batch folder.
 
 Reports
 - exact-set accuracy on the effect cases (the named set equals the concealed set),
@@ -39,7 +41,6 @@ jax.config.update("jax_enable_x64", True)
 
 import _common as common  # noqa: E402
 
-import jaxhyst as jh  # noqa: E402
 from jaxhyst.synthetic import structural_recording  # noqa: E402
 
 
@@ -52,29 +53,6 @@ PAIRS = (
 NOISES = ("white", "coloured")
 PROTOCOLS = ("cyclic", "earthquake")
 RESIDUAL_FACTOR = 1.3
-
-
-def _diagnose_function():
-    """`jaxhyst.diagnose` and `jaxhyst.families.StructuralFamily`, looked up lazily: the
-    structural diagnosis may not exist yet in this checkout."""
-    diagnose = getattr(jh, "diagnose", None)
-    family = getattr(jh.families, "StructuralFamily", None)
-    if diagnose is None or family is None:
-        missing = [
-            name
-            for name, found in (
-                ("diagnose", diagnose),
-                ("families.StructuralFamily", family),
-            )
-            if found is None
-        ]
-        raise SystemExit(
-            f"structural_suite: jaxhyst.{' and jaxhyst.'.join(missing)} not available "
-            "in this checkout (the structural diagnosis, jh.diagnose(recording, *, "
-            "key, family=jh.families.StructuralFamily()) -> Diagnosis, is not there "
-            "yet). Run with --dry-run to exercise the synthetic suite alone."
-        )
-    return diagnose, family
 
 
 def build_cases(seeds: int, noises: tuple[str, ...]) -> list[dict[str, Any]]:
@@ -107,7 +85,8 @@ def build_cases(seeds: int, noises: tuple[str, ...]) -> list[dict[str, Any]]:
     return cases
 
 
-def run_case(spec, index, args, diagnose, family) -> dict[str, Any]:
+def generate_case(spec, index, args) -> tuple[dict[str, Any], Any, Any]:
+    """Case `index`'s record, its recording and its diagnosis key."""
     generate_key, diagnose_key = common.case_keys(args.seed, index)
     start = time.perf_counter()
     case = structural_recording(
@@ -121,15 +100,7 @@ def run_case(spec, index, args, diagnose, family) -> dict[str, Any]:
     result = common.case_record(
         index, spec, case, generated, protocol=case.protocol, forms=case.forms
     )
-    if diagnose is None:
-        return result
-    options = {"progress": True} if args.progress else {}
-    diagnosis, fields = common.diagnosed(
-        case,
-        lambda: diagnose(case.recording, key=diagnose_key, family=family(), **options),
-    )
-    result.update(fields)
-    return result
+    return result, case, diagnose_key
 
 
 def summarise(report: dict) -> dict[str, Any]:
@@ -150,7 +121,7 @@ def summarise(report: dict) -> dict[str, Any]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     common.add_suite_options(
         parser,
         "1 seed, 1000 points, white noise only for effect cases",
@@ -166,7 +137,6 @@ def main(argv=None) -> int:
     if args.cases < 1:
         parser.error("--cases must be >= 1")
 
-    diagnose, family = (None, None) if args.dry_run else _diagnose_function()
     specs = build_cases(args.cases, ("white",) if args.quick else NOISES)
     env = common.machine_info()
     versions = env["versions"]
@@ -176,12 +146,19 @@ def main(argv=None) -> int:
         f"{versions['jax']} on {env['devices']}, numpy {versions['numpy']}, jaxhyst "
         f"{versions['jaxhyst']}"
     )
-    results = []
-    for index, spec in common.selected(specs, args.only):
-        r = run_case(spec, index, args, diagnose, family)
-        results.append(r)
+    generated = [
+        generate_case(spec, index, args)
+        for index, spec in common.selected(specs, args.only)
+    ]
+    if not generated:
+        print("no case matched --only")
+        return 1
+    # The structural family is `diagnose --model bouc-wen`.
+    common.diagnose_suite(args, "bouc-wen", generated)
+    results = [r for r, _, _ in generated]
+    for r in results:
         line = common.case_line(
-            index,
+            r["index"],
             len(specs),
             r,
             width=22,
@@ -189,13 +166,10 @@ def main(argv=None) -> int:
             extra=f"{r['protocol']:<10} ",
         )
         print(line, flush=True)
-    if not results:
-        print("no case matched --only")
-        return 1
 
     config = common.suite_config(args, points=args.points)
     report = common.suite_report(config, env, results)
-    if diagnose is not None:
+    if not args.dry_run:
         summary = summarise(report)
         common.print_summary(
             summary, report, RESIDUAL_FACTOR, width=11, over="effect cases"
