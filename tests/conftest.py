@@ -1,7 +1,9 @@
 import gc
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 
 import pytest
 
@@ -34,10 +36,31 @@ import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_rank_promotion", "raise")
-# The CLI turns on the persistent compilation cache; tests that call `main()` run
-# without it (no writes to the user's cache folder, no sharing between test runs)
-# unless JAXHYST_CACHE_DIR is set. tests/test_cache.py sets its own folders.
-os.environ.setdefault("JAXHYST_CACHE_DIR", "")
+
+_RUN_CACHE = "JAXHYST_TEST_RUN_CACHE"
+
+
+def pytest_configure(config):
+    """One compilation cache for the whole run, shared by its processes. The
+    controller makes a fresh folder (removed at the end; set JAXHYST_TEST_RUN_CACHE
+    to a folder to keep one, or to an empty string to run without a cache); the
+    xdist workers and the command lines the tests start inherit it through the
+    environment. JAX's persistent cache lets a program compiled once in the run
+    (the same fit in two test files, or after a module's `jax.clear_caches()`) load
+    instead of compiling again; `JAXHYST_CACHE_DIR` points the CLI (its cache and its
+    program store) at the same folder. Nothing is shared between runs and nothing is
+    written to the user's cache folder. tests/test_cache.py and
+    tests/test_program_store.py set their own folders."""
+    if not hasattr(config, "workerinput") and _RUN_CACHE not in os.environ:
+        folder = tempfile.mkdtemp(prefix="jaxhyst-test-cache-")
+        os.environ[_RUN_CACHE] = folder
+        config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
+    folder = os.environ[_RUN_CACHE]
+    os.environ.setdefault("JAXHYST_CACHE_DIR", folder)
+    if folder:
+        jax.config.update("jax_compilation_cache_dir", folder)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
+        jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -55,6 +78,10 @@ def _release_compiled_programs():
 # covered in the fast suite by a shorter test (named after the reason) or by a
 # sibling variant. Seconds: the 2-core machine, loaded, session 36.
 SLOW = {
+    "test_structural_diagnose.py::test_a_clean_structural_test_names_nothing": (
+        "15 s after the pinching test; a clean structural record stays silent in "
+        "test_an_effect_the_score_cannot_screen_is_refitted_and_judged_held_out"
+    ),
     "test_identify.py::test_two_stage_corrected_fit_finds_asymmetry": (
         "16 s; the two stages run in test_cli's corrected fit, and an asymmetry is "
         "found by test_diagnose's quick positive"

@@ -221,17 +221,20 @@ def test_a_library_error_keeps_its_traceback(tmp_path, capsys, monkeypatch):
 
 
 def test_python_dash_m_runs_the_cli(tmp_path):
-    out = tmp_path / "run"
+    # `python -m jaxhyst` is the same command line; a run that writes files is
+    # tested in process (test_default_run_writes_the_paper_simulation), and the
+    # installed `jaxhyst` script runs in test_program_store and test_batch.
     result = subprocess.run(
-        [sys.executable, "-m", "jaxhyst", "simulate", "--rate", "100"]
-        + ["--out", str(out)],
+        [sys.executable, "-m", "jaxhyst", "--version"],
         capture_output=True,
         text=True,
         timeout=300,
     )
     assert result.returncode == 0, result.stderr
-    assert "wrote" in result.stdout
-    assert jh.Recording.load(out / "simulation.csv").num_samples == 1001
+    assert result.stdout.startswith("jaxhyst ")
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "simulation.csv").write_text("t,u,y\n")
     again = subprocess.run(
         [sys.executable, "-m", "jaxhyst", "simulate", "--out", str(out)],
         capture_output=True,

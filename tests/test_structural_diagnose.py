@@ -239,11 +239,14 @@ def test_structural_diagnosis_rejects_records_it_cannot_read():
         jh.diagnose(cyclic, key=jax.random.key(0))  # the piezo family
 
 
-def test_a_large_concealed_pinching_is_named_and_a_clean_test_is_not():
+_QUICK_SWARM = jh.MPSO(num_particles=48, num_iterations=60)
+
+
+def test_a_large_concealed_pinching_is_named():
     x = _protocol()
     truth = _truth(x)
     family = jh.families.StructuralFamily()
-    swarm = jh.MPSO(num_particles=48, num_iterations=60)
+    swarm = _QUICK_SWARM
     pinched, sigma = _record(x, truth.replace(pinch=0.8, pinch_width=0.3))
     diagnosis = jh.diagnose(pinched, key=jax.random.key(0), family=family, swarm=swarm)
     assert diagnosis.effects == ("pinching",)
@@ -253,8 +256,15 @@ def test_a_large_concealed_pinching_is_named_and_a_clean_test_is_not():
     assert report["model"] == "bouc-wen"
     assert report["final"]["model"] == "bouc-wen+pinching"
     assert report["opensees"].startswith("uniaxialMaterial BWBN 1 ")
-    clean, sigma = _record(x, truth, seed=1)
-    diagnosis = jh.diagnose(clean, key=jax.random.key(0), family=family, swarm=swarm)
+
+
+def test_a_clean_structural_test_names_nothing():
+    x = _protocol()
+    clean, sigma = _record(x, _truth(x), seed=1)
+    family = jh.families.StructuralFamily()
+    diagnosis = jh.diagnose(
+        clean, key=jax.random.key(0), family=family, swarm=_QUICK_SWARM
+    )
     assert diagnosis.findings == [] and diagnosis.unexplained == []
     assert diagnosis.final_rmse < 1.2 * sigma
     assert diagnosis.to_dict()["opensees"].startswith("uniaxialMaterial BoucWen 1 ")
