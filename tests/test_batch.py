@@ -324,3 +324,25 @@ def test_an_existing_cluster_runs_the_same_records(tmp_path, cache, monkeypatch)
     assert (result.ran, result.skipped, result.failed) == (1, 0, 0)
     assert [row.status for row in result.rows] == ["done"]
     assert (tmp_path / "out" / "records" / "a" / "done").exists()
+
+
+def test_a_worker_keeps_its_programs_until_they_hold_too_many_memory_maps(monkeypatch):
+    import jax
+
+    from jaxhyst._batch import _task
+
+    traces = []
+
+    @jax.jit
+    def double(x):
+        traces.append(1)
+        return 2 * x
+
+    double(1.0)
+    _task.release_programs_if_many()
+    double(1.0)
+    assert len(traces) == 1  # kept: the next record of this shape reuses it
+    monkeypatch.setattr(_task, "MEMORY_MAPS_LIMIT", 0)
+    _task.release_programs_if_many()
+    double(1.0)
+    assert len(traces) == 2  # released: compiled again

@@ -118,6 +118,32 @@ def _fit_report(folder: Path, name: str, argv: tuple[str, ...]) -> None:
     )
 
 
+MEMORY_MAPS_LIMIT = 30_000
+"""Memory maps a worker may hold before it releases its compiled programs: half
+the kernel's default `vm.max_map_count` (65530); each compiled CPU program holds
+about 80."""
+
+
+def _memory_maps() -> int | None:
+    """How many memory maps this process holds, where the system says (Linux)."""
+    try:
+        with open("/proc/self/maps", "rb") as maps:
+            return sum(1 for _ in maps)
+    except OSError:
+        return None
+
+
+def release_programs_if_many() -> None:
+    """A worker runs record after record, and records of one shape run the same
+    programs: keep them compiled, unless they hold so many memory maps that the
+    next compilation could pass the kernel's limit (XLA then crashes); then release
+    them all (later records load theirs from the persistent cache). Where the count
+    is unknown, release after every record."""
+    count = _memory_maps()
+    if count is None or count > MEMORY_MAPS_LIMIT:
+        jax.clear_caches()
+
+
 def run_record(task: RecordTask) -> RecordOutcome:
     """Run one record and put its folder in place; returns its outcome. A user
     error (exit status 2) is a failed outcome with the command's one-line message in
@@ -144,10 +170,7 @@ def run_record(task: RecordTask) -> RecordOutcome:
                 traceback.print_exc()
                 status = None
             finally:
-                # A worker runs record after record: release the compiled programs
-                # (each holds memory maps, and thousands of them pass the kernel's
-                # limit); the next record loads its own from the persistent cache.
-                jax.clear_caches()
+                release_programs_if_many()
     log_text = log_path.read_text(encoding="utf-8", errors="replace")
     if status == 0:
         error = ""
