@@ -346,3 +346,19 @@ def test_a_worker_keeps_its_programs_until_they_hold_too_many_memory_maps(monkey
     _task.release_programs_if_many()
     double(1.0)
     assert len(traces) == 2  # released: compiled again
+
+
+def test_workers_of_a_batch_of_fits_compile_as_the_command_line_does():
+    from jaxhyst._batch._run import worker_environment
+    from jaxhyst._cli._main import quick_compile_flags
+
+    quick = quick_compile_flags(["fit"], {})
+    fits = worker_environment(1, {"fit"}, {})
+    mixed = worker_environment(1, {"fit", "diagnose"}, {})
+    assert "--xla_cpu_multi_thread_eigen=false" in mixed["XLA_FLAGS"]
+    assert fits["OMP_NUM_THREADS"] == "1"
+    if quick is not None:  # a jaxlib known to have the flag
+        assert quick in fits["XLA_FLAGS"] and quick not in mixed["XLA_FLAGS"]
+    mine = worker_environment(2, {"fit"}, {"XLA_FLAGS": "--xla_mine=1"})
+    assert mine["XLA_FLAGS"].startswith("--xla_mine=1")
+    assert "eigen" not in mine["XLA_FLAGS"]

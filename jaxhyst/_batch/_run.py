@@ -13,7 +13,7 @@ import logging
 import os
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -166,9 +166,36 @@ class _Progress:
             print(file=sys.stderr, flush=True)
 
 
-def _client(cluster: LocalWorkers | SchedulerAddress, say: Callable[[str], None]):
+def worker_environment(
+    threads: int, commands: set[str], environ: Mapping[str, str]
+) -> dict[str, str]:
+    """The environment local workers start with: `threads` XLA and OpenMP threads
+    each (one thread: XLA's Eigen thread pool off), and, when every record runs the
+    same command, the XLA flags the command line chooses for it
+    (`quick_compile_flags`: the elemental emitters for a batch of fits). The user's
+    `XLA_FLAGS` are kept and win."""
+    from .._cli._main import quick_compile_flags
+
+    flags = environ.get("XLA_FLAGS", "")
+    if len(commands) == 1:
+        flags = quick_compile_flags(list(commands), {"XLA_FLAGS": flags}) or flags
+    if threads == 1 and "xla_cpu_multi_thread_eigen" not in flags:
+        flags = f"{flags} --xla_cpu_multi_thread_eigen=false".strip()
+    env = {THREADS_ENV: str(threads), "OMP_NUM_THREADS": str(threads)}
+    if flags:
+        env["XLA_FLAGS"] = flags
+    return env
+
+
+def _client(
+    cluster: LocalWorkers | SchedulerAddress,
+    say: Callable[[str], None],
+    commands: set[str],
+):
     """A `distributed.Client` on the cluster, and the LocalCluster to close (or
-    None)."""
+    None). Local workers run with the XLA flags the command line would choose when
+    every record runs the same command (`quick_compile_flags`: the elemental
+    emitters for a batch of fits) and with one XLA thread each when asked."""
     try:
         import dask.config
         import distributed
@@ -180,13 +207,7 @@ def _client(cluster: LocalWorkers | SchedulerAddress, say: Callable[[str], None]
     if isinstance(cluster, SchedulerAddress):
         client = distributed.Client(cluster.address)
         return client, None
-    threads = cluster.threads_per_worker
-    flags = os.environ.get("XLA_FLAGS", "")
-    if threads == 1 and "xla_cpu_multi_thread_eigen" not in flags:
-        flags = f"{flags} --xla_cpu_multi_thread_eigen=false".strip()
-    env = {THREADS_ENV: str(threads), "OMP_NUM_THREADS": str(threads)}
-    if flags:
-        env["XLA_FLAGS"] = flags
+    env = worker_environment(cluster.threads_per_worker, commands, os.environ)
     # A free port (several batches may run on one machine); none without bokeh.
     dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
     options: dict[str, Any] = {
@@ -312,7 +333,7 @@ def _run(
     client = local = None
     futures = {}
     try:
-        client, local = _client(cluster, say)
+        client, local = _client(cluster, say, {task.stamp.command for task in todo})
         from distributed import KilledWorker, as_completed
 
         workers = len(client.scheduler_info().get("workers", {}))
