@@ -19,6 +19,7 @@ findings agree between the runs, and the synthetic records' exact-set accuracy.
 
     python benchmarks/batch.py                 # 8 real + 16 synthetic records
     python benchmarks/batch.py --sequential    # and the one-by-one baseline
+    python benchmarks/batch.py --real 1 --synthetic 8 --sequential   # a shorter run
     python benchmarks/batch.py --quick         # 2 records, tiny swarm: a smoke run
     python benchmarks/batch.py --json out.json
 """
@@ -61,7 +62,7 @@ SYNTHETIC = (
 def write_records(folder: Path, args) -> Path:
     """The recordings as CSV files and their manifest; returns the manifest."""
     rows = []
-    real = STRUCTURAL_TESTS[:1] if args.quick else STRUCTURAL_TESTS
+    real = STRUCTURAL_TESTS[: 1 if args.quick else args.real]
     for name in real:
         try:
             recording = jh.datasets.load_structural_test(name)
@@ -138,6 +139,9 @@ def run_sequential(manifest: Path, folder: Path) -> tuple[float, dict]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 records, tiny swarm")
+    parser.add_argument(
+        "--real", type=int, default=len(STRUCTURAL_TESTS), help="the first N real tests"
+    )
     parser.add_argument("--synthetic", type=int, default=16)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cold", action="store_true", help="no warm-up batch")
