@@ -362,3 +362,24 @@ def test_workers_of_a_batch_of_fits_compile_as_the_command_line_does():
     mine = worker_environment(2, {"fit"}, {"XLA_FLAGS": "--xla_mine=1"})
     assert mine["XLA_FLAGS"].startswith("--xla_mine=1")
     assert "eigen" not in mine["XLA_FLAGS"]
+
+
+def test_the_longest_recordings_are_sent_first(tmp_path):
+    from jaxhyst._batch._run import RecordTask, submission_order
+    from jaxhyst._batch._store import DoneStamp
+
+    sizes = {"a": 10, "b": 300, "c": 20, "d": 300}
+    tasks = []
+    for name, size in sizes.items():
+        (tmp_path / f"{name}.csv").write_text("x" * size)
+        tasks.append(
+            RecordTask(
+                name=name,
+                argv=("fit", str(tmp_path / f"{name}.csv")),
+                out=str(tmp_path),
+                stamp=DoneStamp(
+                    inputs_sha256="x", command="fit", options=(), version="0"
+                ),
+            )
+        )
+    assert [t.name for t in submission_order(tasks)] == ["b", "d", "c", "a"]

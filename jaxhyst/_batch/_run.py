@@ -321,6 +321,21 @@ def batch(
     return result
 
 
+def _recording_bytes(task: RecordTask) -> int:
+    """The size of a task's recording file (its argv is `COMMAND PATH ...`)."""
+    try:
+        return os.path.getsize(task.argv[1])
+    except OSError:
+        return 0
+
+
+def submission_order(todo: list[RecordTask]) -> list[RecordTask]:
+    """Longest first, by the recording's size (ties in manifest order): the last
+    records to finish are then short ones, so no worker idles while another ends a
+    long record. Dask runs them in this order (`priority`)."""
+    return sorted(todo, key=_recording_bytes, reverse=True)
+
+
 def _run(
     todo: list[RecordTask],
     out: Path,
@@ -343,9 +358,13 @@ def _run(
         else:
             say("batch: no dashboard (pip install bokeh to watch the cluster)")
         attempts = {task.name: 0 for task in todo}
-        for task in todo:
+        for task in submission_order(todo):
             future = client.submit(
-                run_record, task, key=f"jaxhyst-{task.name}-0", pure=False
+                run_record,
+                task,
+                key=f"jaxhyst-{task.name}-0",
+                pure=False,
+                priority=_recording_bytes(task),
             )
             futures[future.key] = (future, task)
         pending = as_completed([f for f, _ in futures.values()])
