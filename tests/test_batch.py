@@ -313,7 +313,7 @@ def test_an_existing_cluster_runs_the_same_records(tmp_path, cache, monkeypatch)
     _recording(tmp_path / "a.csv")
     manifest = _manifest(tmp_path, ["a.csv,fit,4,2"], f"recording,command,{TINY}")
     with distributed.LocalCluster(
-        n_workers=1, threads_per_worker=1, dashboard_address=None
+        n_workers=1, threads_per_worker=1, dashboard_address=":0"
     ) as cluster:
         result = jh.batch(
             manifest,

@@ -342,3 +342,17 @@ def test_a_refit_with_non_finite_sensitivities_raises_degenerate_refit(monkeypat
             scales,
             settings,
         )
+
+
+@pytest.mark.parametrize("natural", [1e-30, 0.0, float("inf"), float("nan")])
+def test_a_natural_scale_that_gives_no_interval_falls_back_to_the_next_rule(natural):
+    # A huge sensitivity gives a natural scale below the value's float resolution
+    # (value +- scale is one float): the refit space must still be built (an exam
+    # record's rate-dependence candidate once took its diagnosis down with
+    # "bounds for 'k2' must be finite with lower < upper").
+    family, model, _, _ = _structural()
+    model = model.replace(k=395.22768021358235)
+    scales = RefitScales(1.0, 100.0, {"k": natural})
+    space = refit_space(family, model, ["k"], scales)
+    i = space.names.index("k")
+    assert float(space.lower[i]) < 395.22768021358235 < float(space.upper[i])

@@ -208,8 +208,9 @@ def _client(
         client = distributed.Client(cluster.address)
         return client, None
     env = worker_environment(cluster.threads_per_worker, commands, os.environ)
-    # A free port (several batches may run on one machine); none without bokeh.
-    dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
+    # A free port for the scheduler's HTTP server (the dashboard, with bokeh):
+    # several batches may run on one machine, and Dask's default port would warn.
+    dashboard = ":0"
     options: dict[str, Any] = {
         "dashboard_address": dashboard,
         "env": env,

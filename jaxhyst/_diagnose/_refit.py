@@ -37,26 +37,37 @@ def fitted_names(
     return tuple(n for n in model.parameter_names if n not in family.gauge)
 
 
+def _usable(bounds: tuple[float, float] | None) -> bool:
+    return (
+        bounds is not None
+        and math.isfinite(bounds[0])
+        and math.isfinite(bounds[1])
+        and bounds[0] < bounds[1]
+    )
+
+
 def refit_space(
     family: AbstractFamily, model: AbstractHysteresisModel, free, scales: RefitScales
 ) -> ParameterSpace:
     """One space over all fitted parameters around `model`, with all but `free`
     frozen. Bounds: the effect's own, else the family's, else the current value
-    +- its natural scale, else +- twice its size."""
+    +- its natural scale, else +- twice its size; a rule whose interval is empty or
+    not finite (a natural scale below the value's float resolution, from a huge
+    sensitivity) gives way to the next."""
     names = fitted_names(family, model)
     owner = {p: e for e in family.catalogue for p in e.parameters}
     bounds = {}
     for name in names:
         value = float(getattr(model, name))
-        chosen = owner[name].bounds(name, value, scales) if name in owner else None
-        if chosen is None:
-            chosen = family.base_bounds(name, value)
-        if chosen is None and name in scales.natural:
-            chosen = (value - scales.natural[name], value + scales.natural[name])
-        if chosen is None:
-            spread = 2 * abs(value) + 1e-12
-            chosen = (value - spread, value + spread)
-        bounds[name] = chosen
+        natural = scales.natural.get(name)
+        spread = 2 * abs(value) + 1e-12
+        candidates = (
+            owner[name].bounds(name, value, scales) if name in owner else None,
+            family.base_bounds(name, value),
+            None if natural is None else (value - natural, value + natural),
+            (value - spread, value + spread),
+        )
+        bounds[name] = next(b for b in candidates if _usable(b))
     log = [p for e in family.catalogue for p in e.log_scaled if p in names]
     frozen = [n for n in names if n not in free]
     return ParameterSpace(
