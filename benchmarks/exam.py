@@ -784,6 +784,12 @@ def main(argv=None) -> int:
         "--out", default=None, help="keep the batch folder (a rerun resumes)"
     )
     parser.add_argument("--score-only", metavar="DIR", default=None)
+    parser.add_argument(
+        "--ran-only",
+        action="store_true",
+        help="with --score-only: score the records the batch has run (done or "
+        "failed) and say how many are left; a partial exam scores nothing else",
+    )
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=0)
     common.add_json(parser)
@@ -798,6 +804,10 @@ def main(argv=None) -> int:
         metas = [m for m in metas if m["family"] in families]
         if args.limit is not None:
             metas = [m for m in metas if m["index"] < args.limit]
+        if args.ran_only:
+            ran = [m for m in metas if (out / "records" / m["name"]).is_dir()]
+            print(f"scoring the {len(ran)} of {len(metas)} records the batch ran")
+            metas = ran
         score(out, metas, families, args.json)
         return 0
     if args.dry_run:
