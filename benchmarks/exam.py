@@ -62,6 +62,7 @@ Do not tune the engine to these records: change it, then run the exam.
 
 import argparse
 import csv
+import functools
 import hashlib
 import json
 import math
@@ -82,6 +83,7 @@ import _exam_truth as truth  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxhyst as jh  # noqa: E402
+from jaxhyst._batch import read_manifest  # noqa: E402
 
 
 FAMILIES = ("piezo", "structural", "damper")
@@ -604,10 +606,24 @@ def _dry_line(m: dict) -> str:
 # ----------------------------------------------------------------------- scoring
 
 
+@functools.cache
+def _folder_names(out: Path) -> dict[str, str]:
+    return {
+        Path(record.recording).stem: record.name
+        for record in read_manifest(out / "manifest.csv").records
+    }
+
+
+def record_folder(out: Path, name: str) -> Path:
+    """The batch's folder of the record `name` (the batch makes a record's folder
+    name file-safe, `a+b` -> `a_b`: read it from the manifest)."""
+    return out / "records" / _folder_names(out).get(name, name)
+
+
 def read_result(out: Path, name: str) -> dict | None:
     """The record's diagnosis JSON, with the batch's wall seconds under
     "batch_seconds" (None when the batch did not finish the record)."""
-    folder = out / "records" / name
+    folder = record_folder(out, name)
     path = folder / "result.json"
     if not path.is_file():
         return None
@@ -805,7 +821,7 @@ def main(argv=None) -> int:
         if args.limit is not None:
             metas = [m for m in metas if m["index"] < args.limit]
         if args.ran_only:
-            ran = [m for m in metas if (out / "records" / m["name"]).is_dir()]
+            ran = [m for m in metas if record_folder(out, m["name"]).is_dir()]
             print(f"scoring the {len(ran)} of {len(metas)} records the batch ran")
             metas = ran
         score(out, metas, families, args.json)
