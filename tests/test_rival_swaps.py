@@ -1,5 +1,6 @@
 """The rival stage (`_rivals`): every finding is refitted against the other effects
-that passed validation; a rival better beyond the resolution replaces it, and among
+of the catalogue (those that passed validation, and those that failed it or were
+never refitted); a rival better beyond the resolution replaces it, and among
 effects the record cannot tell apart the fit keeps the one with the lowest held-out
 error.
 
@@ -36,6 +37,15 @@ def _effect_of(output: np.ndarray) -> str:
     return TAGS[int(output[0])]
 
 
+class _Refitted(types.SimpleNamespace):
+    """A stand-in refitted model: which effect it came from; every parameter 0."""
+
+    parameter_floors: dict[str, float] = {}
+
+    def __getattr__(self, name: str) -> float:
+        return 0.0
+
+
 @pytest.fixture
 def stage(monkeypatch):
     """(run, swaps): `run(adopted, heldout_mse, *, untried=(), se=1.0)` runs the stage
@@ -49,10 +59,12 @@ def stage(monkeypatch):
         (effect,) = {
             e.name for e in FAMILY.catalogue if set(added) <= set(e.parameters)
         }
-        return types.SimpleNamespace(effect=effect)
+        return _Refitted(effect=effect)
 
     def predict(ctx, model):
-        return _output(model.effect)
+        # The model without the finding (`_validated_in_place`'s baseline) is
+        # MODEL itself: any finite output.
+        return _output(model.effect) if hasattr(model, "effect") else np.zeros(4)
 
     def replace_finding(ctx, state, position, swap):
         swaps.append(
@@ -67,7 +79,21 @@ def stage(monkeypatch):
             free=tuple(FAMILY.effect(swap.alternative.name).parameters),
         )
 
-    def run(adopted, heldout_mse, *, untried=(), se=1.0, comparison=None):
+    def run(
+        adopted,
+        heldout_mse,
+        *,
+        untried=(),
+        failed=(),
+        se=1.0,
+        comparison=None,
+        policy=jh.families.AdoptionPolicy(),
+        passes_in_place=True,
+    ):
+        """... `failed`: effects that failed validation (neither validated nor
+        untried); `passes_in_place`: whether such a rival, validated in the
+        finding's place, passes."""
+
         def by_effect(ctx, state, kept, other):
             return heldout_mse[_effect_of(kept)], heldout_mse[_effect_of(other)], se
 
@@ -78,6 +104,11 @@ def stage(monkeypatch):
             np.zeros(4),
             validation(),
         )
+        monkeypatch.setattr(
+            engine,
+            "_validate",
+            lambda *args, **kwargs: validation(accepted=passes_in_place),
+        )
         others = [n for n in heldout_mse if n != adopted]
         state = engine._State(
             current=MODEL,
@@ -85,12 +116,20 @@ def stage(monkeypatch):
             free=FAMILY.effect(adopted).parameters,
             findings=(_finding(adopted),),
             passed_trials={
-                n: (trial, {}) for n in [adopted, *others] if n not in untried
+                n: (trial, {})
+                for n in [adopted, *others]
+                if n not in untried and n not in failed
             },
             untried={n: trial.score for n in untried},
+            failed_trials={n: trial for n in failed},
+            latest_scores={n: trial.score for n in heldout_mse},
         )
         ctx = types.SimpleNamespace(
             family=FAMILY,
+            policy=policy,
+            hidden=frozenset(),
+            recording=None,
+            fit_mask=np.ones(4, bool),
             progress=types.SimpleNamespace(say=lambda message: None),
             key=jax.random.key(0),
             sample_rate=1.0,
@@ -104,8 +143,11 @@ def stage(monkeypatch):
     monkeypatch.setattr(engine, "_predict", predict)
     monkeypatch.setattr(engine, "_replace_finding", replace_finding)
     monkeypatch.setattr(
-        engine, "_best_start", lambda ctx, effect, without, step, scales: (MODEL, None)
+        engine,
+        "_best_start",
+        lambda ctx, effect, without, step, scales, **_: (MODEL, float("inf")),
     )
+    monkeypatch.setattr(type(FAMILY), "locate", lambda self, recording, residual: {})
     return run, swaps
 
 
@@ -142,7 +184,11 @@ def test_the_best_of_several_close_rivals_takes_the_place(stage):
 def test_a_close_rival_never_validated_alone_does_not_replace_the_finding(stage):
     run, swaps = stage
     state = run(
-        "drift", {"drift": 17.0, "asymmetry": 14.0}, untried=("asymmetry",), se=2.0
+        "drift",
+        {"drift": 17.0, "asymmetry": 14.0},
+        untried=("asymmetry",),
+        se=2.0,
+        passes_in_place=False,
     )
     assert swaps == []
     assert state.adopted == ("drift",)
@@ -150,6 +196,41 @@ def test_a_close_rival_never_validated_alone_does_not_replace_the_finding(stage)
     assert "adopted first; the better rival was never validated alone" in (
         said.statement
     )
+
+
+def test_an_effect_that_failed_validation_is_a_rival_too(stage):
+    """Pinching failed validation while drift stood in for it: it is still
+    refitted in drift's place, and the record cannot tell the two apart. Without
+    whole-catalogue rivals it is never compared."""
+    run, swaps = stage
+    mse = {"drift": 17.0, "pinching": 18.0, "asymmetry": 40.0}
+    state = run("drift", mse, failed=("pinching", "asymmetry"), se=2.0)
+    assert swaps == []
+    finding = state.findings[0]
+    assert {r.effect for r in finding.rivals} == {"pinching", "asymmetry"}
+    assert not finding.decided
+    (said,) = (a for a in state.ambiguities if "cannot tell drift" in a.statement)
+    assert set(said.undecided) == {"drift", "pinching"}
+    narrow = jh.families.AdoptionPolicy(whole_catalogue_rivals=False)
+    state = run("drift", mse, failed=("pinching", "asymmetry"), se=2.0, policy=narrow)
+    assert state.findings[0].rivals == ()
+    assert state.findings[0].decided
+
+
+def test_a_rival_that_failed_validation_and_wins_replaces_the_finding(stage):
+    """Refitted in drift's place, pinching fits the held-out data better beyond
+    the resolution and passes validation there: it takes drift's place. Where it
+    does not pass there, the record is said not to decide."""
+    run, swaps = stage
+    mse = {"drift": 30.0, "pinching": 10.0}
+    state = run("drift", mse, failed=("pinching",))
+    assert swaps == [("drift", "pinching", True)]
+    assert state.adopted == ("pinching",)
+    swaps.clear()
+    state = run("drift", mse, failed=("pinching",), passes_in_place=False)
+    assert swaps == []
+    assert state.adopted == ("drift",)
+    assert not state.findings[0].decided
 
 
 def test_an_effect_replaced_within_the_resolution_does_not_come_back(stage):

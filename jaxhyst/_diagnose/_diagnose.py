@@ -34,7 +34,7 @@ from .._status import RESULTS, has_status
 from .._swarm import MPSO
 from .._threads import side_by_side
 from ._ambiguity import cannot_tell_rivals, confined, standing_in, unresolved
-from ._effects.base import AbstractEffect, RefitScales
+from ._effects.base import AbstractEffect, RefitScales, quantity
 from ._families import AbstractFamily, PiezoFamily
 from ._locate import effective_samples
 from ._policy import AdoptionPolicy
@@ -137,6 +137,12 @@ class _State(eqx.Module):
     # strongest), with their latest score: rivals too, refitted in a finding's
     # place from the score test's step.
     untried: dict[str, Score] = eqx.field(default_factory=dict)
+    # Each effect's latest refit that failed held-out validation: one more place a
+    # rival's refit may start from (`AdoptionPolicy.whole_catalogue_rivals`).
+    failed_trials: dict[str, _Trial] = eqx.field(default_factory=dict)
+    # Each effect's latest score (its Gauss-Newton step: where a rival's refit
+    # starts when the effect was never refitted).
+    latest_scores: dict[str, Score] = eqx.field(default_factory=dict)
     # Pairs of fitted models the record cannot tell apart (for the advice).
     contrasts: tuple["_Contrast", ...] = ()
     noise: NoiseModel | None = None
@@ -1051,11 +1057,17 @@ def _forward(ctx: _Context, state: _State) -> _State:
             }.items()
             if name not in tried and name not in state.passed_trials
         }
+        failed = {t.score.effect: t for t in trials if not t.validation.accepted}
         state = dataclasses.replace(
             state,
             rounds=state.rounds + (scores,),
             passed_trials={**state.passed_trials, **passed},
             untried=untried,
+            failed_trials={
+                **{n: t for n, t in state.failed_trials.items() if n not in passed},
+                **failed,
+            },
+            latest_scores={**state.latest_scores, **{c.effect: c for c in scores}},
         )
         if not passed:
             pair = _jointly(ctx, state, trials) if ctx.policy.pair_refits else None
@@ -1189,9 +1201,7 @@ def _rivals(ctx: _Context, state: _State) -> _State:
     while position < len(state.findings):
         finding = state.findings[position]
         adopted_effect = family.effect(finding.effect)
-        others = [
-            n for n in (*state.passed_trials, *state.untried) if n not in state.adopted
-        ]
+        others = _rival_names(ctx, state, finding.effect)
         if others:
             ctx.progress.say(
                 f"testing {finding.effect} against its rivals: {', '.join(others)}"
@@ -1209,6 +1219,15 @@ def _rivals(ctx: _Context, state: _State) -> _State:
                     ctx, state, state.predicted, swapped_pred
                 )
                 margin = (rival_mse - kept_mse) / se if se > 0 else 0.0
+                if margin < 0 and trial is None and ctx.policy.whole_catalogue_rivals:
+                    trial, where_then = _validated_in_place(
+                        ctx,
+                        state,
+                        adopted_effect,
+                        alternative,
+                        (names, swapped),
+                        swapped_pred,
+                    )
                 if (
                     margin < 0
                     and trial is not None
@@ -1293,11 +1312,13 @@ def _swapped_in(
         start = alternative.take_from(without, trial.model)
         if _fitted_already(family, trial, start, names):
             return names, trial.model, trial.predicted
-    else:
+    elif name in state.untried:
         scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
         start, _ = _best_start(
             ctx, alternative, without, state.untried[name].step, scales
         )
+    else:
+        start = _rival_start(ctx, state, alternative, without)
     key = jax.random.fold_in(
         ctx.key, 7919 + 97 * position + family.effect_names.index(name)
     )
@@ -1305,6 +1326,82 @@ def _swapped_in(
     if swapped is None:  # no rival model to compare: the finding stays
         return names, None, None
     return names, swapped, _predict(ctx, swapped)
+
+
+def _rival_names(ctx: _Context, state: _State, effect: str) -> list[str]:
+    """The effects the finding `effect` is tested against: each effect that passed
+    held-out validation in some round or was significant but never refitted, and,
+    with `AdoptionPolicy.whole_catalogue_rivals`, every other effect of the
+    catalogue the record can show (scored in some round, its `needs` among the
+    findings kept): an effect that failed validation while another was standing in
+    for it is a rival too."""
+    named = [
+        n for n in (*state.passed_trials, *state.untried) if n not in state.adopted
+    ]
+    if not ctx.policy.whole_catalogue_rivals:
+        return named
+    kept = set(state.adopted) - {effect}
+    return named + [
+        e.name
+        for e in _unscored(ctx, state)
+        if e.name not in named
+        and e.name in state.latest_scores
+        and (e.needs is None or e.needs in kept)
+    ]
+
+
+def _rival_start(
+    ctx: _Context,
+    state: _State,
+    alternative: AbstractEffect,
+    without: AbstractHysteresisModel,
+) -> AbstractHysteresisModel:
+    """Where the refit of a rival that neither passed validation nor waits untried
+    starts, in the model `without` the finding: the best (on the fitted samples) of
+    its starting points from its latest score's step, with the effect on, and of
+    its failed refit's values, when it had one."""
+    scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
+    step = state.latest_scores[alternative.name].step
+    start, start_mse = _best_start(ctx, alternative, without, step, scales, on=True)
+    failed = state.failed_trials.get(alternative.name)
+    if failed is not None:
+        earlier = alternative.take_from(without, failed.model)
+        predicted = _predict(ctx, earlier)
+        if _finite(predicted) and _mse(ctx.y - predicted, ctx.fit_mask) < start_mse:
+            start = earlier
+    return start
+
+
+def _validated_in_place(
+    ctx: _Context,
+    state: _State,
+    adopted_effect: AbstractEffect,
+    alternative: AbstractEffect,
+    swap: tuple[tuple[str, ...], AbstractHysteresisModel],
+    swapped_pred: np.ndarray,
+) -> tuple[_Trial | None, dict[str, Any] | None]:
+    """A rival that was never validated, refitted in a finding's place (`swap`:
+    the refit's free parameters and model), validated on the held-out samples against the model without that
+    finding: its trial and where the mismatch is without the finding, or Nones when
+    it does not pass (it then stays a rival only)."""
+    without_pred = _predict(ctx, adopted_effect.switch_off(state.current))
+    if not _finite(without_pred):
+        return None, None
+    names, swapped = swap
+    score = state.untried.get(alternative.name, state.latest_scores[alternative.name])
+    validation = _validate(
+        ctx,
+        dataclasses.replace(state, predicted=without_pred),
+        score,
+        alternative,
+        swapped_pred,
+        parameters=alternative.fitted_dof(swapped),
+    )
+    if not validation.accepted:
+        return None, None
+    where = ctx.family.locate(ctx.recording, ctx.y - without_pred)
+    score = dataclasses.replace(score, validation=validation, rejection=None)
+    return _Trial(score, swapped, swapped_pred, validation, free=names), where
 
 
 def _fitted_already(
@@ -1511,6 +1608,56 @@ def _described(
             )
         )
     return tuple(described)
+
+
+def _undetermined(ctx: _Context, findings: tuple[Finding, ...]) -> dict[str, str]:
+    """The findings whose defining parameters the record does not determine
+    (`AbstractEffect.undetermined`), with why in words."""
+    why = {}
+    for finding in findings:
+        effect = ctx.family.effect(finding.effect)
+        values, errors = finding.final_parameters, finding.standard_errors
+        names = effect.undetermined(values, errors)
+        if names:
+            why[finding.effect] = ", ".join(
+                f"{p} = {quantity(values[p], errors.get(p), finding.units[p])}"
+                for p in names
+            )
+    return why
+
+
+def _without(ctx: _Context, state: _State, dropped: dict[str, str]) -> _State:
+    """`state` without the findings in `dropped` (effect: why undetermined): an
+    effect that lowers the error with parameters the record does not determine is
+    not a finding; its terms leave the model, and what they took up is left to the
+    remainder and the unexplained-structure probes."""
+    family = ctx.family
+    current, free = state.current, state.free
+    statements = []
+    for name, why in dropped.items():
+        effect = family.effect(name)
+        current = effect.switch_off(current)
+        free = tuple(p for p in free if p not in effect.parameters)
+        ctx.progress.say(f"{name} not named: the record does not determine it")
+        statements.append(
+            Ambiguity(
+                f"{name} lowered the held-out error, but the record does not "
+                f"determine its defining parameters ({why}): it is not named, and "
+                "what it took up is left to what is left of the residual. A "
+                "record that excites it more would tell.",
+                (name,),
+            )
+        )
+    return _with_step(
+        ctx,
+        state,
+        " and ".join(dropped) + " dropped (not determined by the record)",
+        current=current,
+        predicted=_predict(ctx, current),
+        free=free,
+        findings=tuple(f for f in state.findings if f.effect not in dropped),
+        ambiguities=state.ambiguities + tuple(statements),
+    )
 
 
 def _moved(
@@ -1770,6 +1917,19 @@ def _diagnose(
             predicted=final_pred,
         )
     findings = _described(ctx, state, final_model, final_pred)
+    dropped = _undetermined(ctx, findings)
+    if dropped:
+        state = _without(ctx, state, dropped)
+        final_model, final_pred = _final_refit(ctx, state)
+        if final_model is not state.current:
+            state = _with_step(
+                ctx,
+                state,
+                "final refit on every sample",
+                current=final_model,
+                predicted=final_pred,
+            )
+        findings = _described(ctx, state, final_model, final_pred)
     # The noise draws the unexplained probes are judged against, from the key.
     draws_seed = int(jax.random.randint(jax.random.fold_in(key, 977), (), 0, 2**31 - 1))
     undecided = tuple(

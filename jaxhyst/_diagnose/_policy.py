@@ -56,6 +56,14 @@ class AdoptionPolicy(eqx.Module):
       first pair that passes (the backward check then tests each alone). Two
       effects present at once bias the model each is added to alone, so neither
       may clear the margin by itself.
+    - `whole_catalogue_rivals`: test every finding against every other effect of
+      the catalogue the record can show, each refitted in the finding's place (the
+      other findings kept), not only against those that passed held-out validation
+      or were significant but never refitted. A true effect can fail validation in
+      an early round while another effect stands in for it, and would never be
+      compared with what took its place. A rival that fits the held-out data
+      better is validated in the finding's place; passed, it may replace the
+      finding as a validated rival does, else the two are said to be undecided.
     """
 
     significance: float = 1e-6
@@ -73,6 +81,7 @@ class AdoptionPolicy(eqx.Module):
     noise_across_strides: bool = False
     pair_refits: bool = False
     refit_on_structure: bool = False
+    whole_catalogue_rivals: bool = True
 
     def __check_init__(self):
         if not 0 < self.significance < 1:

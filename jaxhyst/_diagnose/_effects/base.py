@@ -97,6 +97,18 @@ class AbstractEffect(eqx.Module):
             1,
         )
 
+    def undetermined(
+        self, values: dict[str, float], errors: dict[str, float]
+    ) -> tuple[str, ...]:
+        """The defining parameters the record leaves undetermined (`determined`:
+        a finite standard error below the value's size), empty when the record
+        determines the effect. By default the gains define it, and one determined
+        gain is enough (a relaxation with one clear mode of four, a drift that is
+        an offset only): all of them when none is."""
+        if any(determined(values[p], errors.get(p)) for p in self.gains):
+            return ()
+        return self.gains
+
     def sensitivity_parameters(self, model: AbstractHysteresisModel) -> tuple[str, ...]:
         """The parameters whose output sensitivities the engine computes at
         `model` (all of them for a smooth effect)."""
@@ -316,6 +328,14 @@ def not_determined(error: float | None) -> bool:
     """Whether a standard error leaves its parameter undetermined (NaN, inf,
     missing or not positive)."""
     return error is None or not math.isfinite(error) or error <= 0
+
+
+def determined(value: float, error: float | None) -> bool:
+    """Whether the record determines a parameter: its standard error is finite and
+    below the value's size (the value is at least one standard error from 0)."""
+    if error is None or not_determined(error):
+        return False
+    return abs(value) > error
 
 
 def quantity(value: float, error: float | None, unit: str = "1") -> str:

@@ -14,6 +14,7 @@ from .base import (
     RefitScales,
     concentration,
     conclude,
+    determined,
     fitted,
     model_as,
     named_units,
@@ -54,6 +55,12 @@ class Dynamics(AbstractEffect):
         return model_as(model, ExtendedPiezo, self.name).with_dynamics(
             float(source.natural_frequency), float(source.damping_ratio)
         )
+
+    def undetermined(self, values, errors):
+        # A resonance is its frequency: switched on by the model's structure, it
+        # has no gain, and a frequency the record does not pin down is no finding.
+        name = "natural_frequency"
+        return () if determined(values[name], errors.get(name)) else (name,)
 
     def sensitivity_parameters(self, model):
         # Without the stage in the model, its parameters move nothing.
