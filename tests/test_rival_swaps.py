@@ -368,3 +368,40 @@ def test_a_rival_whose_trial_fitted_the_same_model_is_not_refitted(monkeypatch):
     state = dataclasses.replace(state, passed_trials={"drift": (trial, {})})
     engine._swapped_in(ctx, state, 0, adopted, "drift")  # pyright: ignore[reportArgumentType]
     assert len(refits) == 2
+
+
+def test_a_rival_whose_refit_hits_a_bug_is_skipped_with_its_traceback(
+    stage, monkeypatch
+):
+    """A jaxhyst error in one rival's refit is warned with its traceback; the other
+    rivals are still compared and the finding stays."""
+    run, swaps = stage
+    refit = engine._refit
+
+    def broken_for_pinching(ctx, state, start, names, **options):
+        if "pinch" in names:
+            raise ValueError("a bound with no interval")
+        return refit(ctx, state, start, names, **options)
+
+    monkeypatch.setattr(engine, "_refit", broken_for_pinching)
+    with pytest.warns(RuntimeWarning, match="refitting pinching failed") as said:
+        state = run("drift", {"drift": 10.0, "pinching": 1.0, "asymmetry": 30.0})
+    assert "a bound with no interval" in str(said[0].message)
+    assert "Traceback" in str(said[0].message)
+    assert swaps == []
+    assert [r.effect for r in state.findings[0].rivals] == ["asymmetry"]
+
+
+def test_a_candidate_whose_refit_hits_a_bug_is_rejected_not_fatal(monkeypatch):
+    def broken(*args, **kwargs):
+        raise ValueError("a bound with no interval")
+
+    monkeypatch.setattr(engine, "_refit", broken)
+    ctx = types.SimpleNamespace(policy=jh.families.AdoptionPolicy())
+    state = engine._State(current=MODEL, predicted=np.zeros(4), free=())
+    score = jh.diagnosis.Score("drift", 1.0, 1, -5.0, 0.0, True, {}, np.zeros((1, 1)))
+    effect = FAMILY.effect("drift")
+    with pytest.warns(RuntimeWarning, match="Traceback"):
+        trial = engine._trial(ctx, state, score, (effect,), MODEL, jax.random.key(0))  # pyright: ignore[reportArgumentType]
+    assert isinstance(trial, engine._Failed)
+    assert "error in jaxhyst (ValueError: a bound with no interval)" in trial.reason

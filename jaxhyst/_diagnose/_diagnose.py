@@ -12,6 +12,8 @@ import dataclasses
 import functools
 import math
 import time
+import traceback
+import warnings
 from collections.abc import Callable, Collection, Sequence
 from typing import Any
 
@@ -218,6 +220,23 @@ def _refit(
         scales,
         settings,
         key=key,
+    )
+
+
+def _candidate_bug(effect: str, error: Exception) -> str:
+    """Why a candidate's refit failed with an error of jaxhyst's own (a bug, not a
+    property of the record): warned with its traceback, so that it can be reported,
+    while the diagnosis goes on without that candidate."""
+    warnings.warn(
+        f"diagnose: refitting {effect} failed with an error in jaxhyst; the "
+        "diagnosis goes on without it. Please report this traceback:\n"
+        + "".join(traceback.format_exception(error)),
+        RuntimeWarning,
+        stacklevel=2,
+    )
+    return (
+        f"the refit failed with an error in jaxhyst ({type(error).__name__}: "
+        f"{error}); please report it"
     )
 
 
@@ -701,6 +720,8 @@ def _trial(
         )
     except DegenerateRefit as error:
         return _Failed(f"the refit was numerically degenerate: {error}")
+    except Exception as error:  # a bug in one candidate's refit: the others go on
+        return _Failed(_candidate_bug(effect.name, error))
     new_pred = _predict(ctx, refitted)
     if not _finite(new_pred):
         return _Failed("the refitted model diverged")
@@ -1322,7 +1343,11 @@ def _swapped_in(
     key = jax.random.fold_in(
         ctx.key, 7919 + 97 * position + family.effect_names.index(name)
     )
-    swapped = _refit_or_none(ctx, state, start, names, max_steps=20, key=key)
+    try:
+        swapped = _refit_or_none(ctx, state, start, names, max_steps=20, key=key)
+    except Exception as error:  # a bug in one rival's refit: the finding stays
+        _candidate_bug(name, error)
+        swapped = None
     if swapped is None:  # no rival model to compare: the finding stays
         return names, None, None
     return names, swapped, _predict(ctx, swapped)
