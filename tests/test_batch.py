@@ -178,12 +178,23 @@ def test_the_summary_reads_a_diagnosis(tmp_path):
     (folder / "done").write_text(json.dumps(stamp))
     (folder / "outcome.json").write_text(json.dumps({"seconds": 12.5}))
     (folder / "report.html").write_text("<p>report</p>")
-    finding = {"effect": "pinching", "validation": {"heldout_rmse_before": 2.0}}
+    finding = {
+        "effect": "pinching",
+        "form": "series_slip",
+        "validation": {"heldout_rmse_before": 2.0},
+    }
     finding["validation"]["heldout_rmse_after"] = 1.0
     (folder / "result.json").write_text(
         json.dumps(
             {
-                "findings": [finding, {**finding, "effect": "degradation"}],
+                "findings": [
+                    finding,
+                    {
+                        **finding,
+                        "effect": "degradation",
+                        "form": "energy+peak_excursion",
+                    },
+                ],
                 "undecided": ["degradation", "drift"],
                 "baseline": {"rmse": 3.0},
                 "final": {"rmse": 1.0},
@@ -194,6 +205,9 @@ def test_the_summary_reads_a_diagnosis(tmp_path):
     assert row.findings == ("pinching", "degradation")
     summary = _summary(tmp_path / "out")["a"]
     assert summary["findings"] == "pinching+degradation"
+    assert summary["finding_forms"] == (
+        "pinching:series_slip degradation:energy+peak_excursion"
+    )
     assert summary["heldout_gains"] == "0.75+0.75"
     assert summary["undecided"] == "degradation+drift"
     assert summary["specimen"] == "S1" and summary["status"] == "done"

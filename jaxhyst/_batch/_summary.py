@@ -25,6 +25,8 @@ class SummaryRow:
 
     - `status`: `done`, `failed`, or `missing` (no folder: not run yet, or deleted).
     - `findings`: the diagnosis's effects in order (empty for a fit).
+    - `finding_forms`: each finding's form (`Finding.form`; "" when the result
+      names none).
     - `heldout_gains`: each finding's drop of the held-out mean squared error, as a
       fraction.
     - `undecided`: the effects the record cannot decide between.
@@ -38,6 +40,7 @@ class SummaryRow:
     status: str
     findings: tuple[str, ...] = ()
     error: str = ""
+    finding_forms: tuple[str, ...] = ()
     heldout_gains: tuple[float, ...] = ()
     undecided: tuple[str, ...] = ()
     base_rmse: float | None = None
@@ -90,6 +93,7 @@ def read_row(out: Path, record: Record) -> SummaryRow:
             record=record,
             status="done",
             findings=tuple(str(f.get("effect", "")) for f in findings),
+            finding_forms=tuple(str(f.get("form", "")) for f in findings),
             heldout_gains=tuple(_gain(f) for f in findings),
             undecided=tuple(str(u) for u in data.get("undecided", [])),
             base_rmse=_number(data.get("baseline", {}).get("rmse")),
@@ -125,6 +129,7 @@ def columns(manifest: Manifest) -> list[str]:
         *manifest.label_columns,
         "name",
         "command",
+        "finding_forms",
         "heldout_gains",
         "undecided",
         "base_rmse",
@@ -143,6 +148,11 @@ def _cells(row: SummaryRow) -> list[str]:
         *(value for _, value in row.record.labels),
         row.record.name,
         row.record.command,
+        " ".join(
+            f"{effect}:{form}"
+            for effect, form in zip(row.findings, row.finding_forms)
+            if form
+        ),
         "+".join(f"{g:.3g}" for g in row.heldout_gains),
         "+".join(row.undecided),
         _text(row.base_rmse),

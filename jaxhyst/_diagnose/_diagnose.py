@@ -1627,6 +1627,7 @@ def _described(
                 final_parameters=values,
                 standard_errors=se,
                 units=units,
+                form=effect.form(final_model),
                 meaning=effect.meaning,
                 reading=effect.reading(values, se, units),
                 moved=_moved(finding.parameters, values, se, units, later),

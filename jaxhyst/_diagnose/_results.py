@@ -178,8 +178,9 @@ class Finding(eqx.Module):
 
     `parameters` are the values when it was adopted; `final_parameters`,
     `standard_errors` and `units` describe the final model (filled in once the
-    diagnosis is complete), `reading` says what they mean physically and `moved`
-    flags a large move between the two."""
+    diagnosis is complete), `form` names the effect's forms on in it
+    (`AbstractEffect.forms`, joined by "+"), `reading` says what they mean
+    physically and `moved` flags a large move between the two."""
 
     effect: str
     evidence: str
@@ -193,6 +194,7 @@ class Finding(eqx.Module):
     final_parameters: dict[str, float] = eqx.field(default_factory=dict)
     standard_errors: dict[str, float] = eqx.field(default_factory=dict)
     units: dict[str, str] = eqx.field(default_factory=dict)
+    form: str = ""
     meaning: str = ""
     reading: str = ""
     moved: str | None = None
@@ -205,6 +207,7 @@ class Finding(eqx.Module):
     def to_dict(self) -> dict[str, Any]:
         out = {
             "effect": self.effect,
+            "form": self.form,
             "evidence": self.evidence,
             "where": self.where,
             "score": self.score,

@@ -152,6 +152,13 @@ def final_parameters_text(finding: Finding) -> str:
     return "; ".join(parts)
 
 
+def named_form(finding: Finding) -> str:
+    """A finding's effect with its form, as in "pinching (form: series_slip)"."""
+    return (
+        f"{finding.effect} (form: {finding.form})" if finding.form else finding.effect
+    )
+
+
 def rivals_text(finding: Finding, scale: float, s: str) -> str:
     """A finding's rivals and whether the record tells it from them."""
     if not finding.rivals:

@@ -12,6 +12,7 @@ from ._common import (
     final_label,
     fitted_share,
     labels,
+    named_form,
     number,
     rivals_text,
     rmse_change,
@@ -96,7 +97,7 @@ def diagnosis_summary(diagnosis: Diagnosis, recording: Recording) -> str:
         lines.append(f"findings ({len(diagnosis.findings)}):")
         for index, finding in enumerate(diagnosis.findings, start=1):
             lines += [
-                f"  {index}. {finding.effect}: {finding.reading}",
+                f"  {index}. {named_form(finding)}: {finding.reading}",
                 f"     evidence: {finding.evidence}",
                 f"     where: {finding.where}",
                 f"     rivals: {rivals_text(finding, scale, s)}",

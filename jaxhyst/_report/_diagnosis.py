@@ -22,6 +22,7 @@ from ._common import (
     fitted_share,
     labels,
     log10_p,
+    named_form,
     number,
     parameters_text,
     relative_link,
@@ -260,7 +261,7 @@ def diagnosis_blocks(
                 validation_lines(finding.validation.to_dict(), scale, unit),
             ),
         ]
-        out += [Heading(f"{index}. {finding.effect}", 3), Bullets(items)]
+        out += [Heading(f"{index}. {named_form(finding)}", 3), Bullets(items)]
     out += [
         Heading("RMSE chain"),
         Paragraph(

@@ -22,6 +22,11 @@ class Asymmetry(AbstractEffect):
 
     name: ClassVar[str] = "asymmetry"
     parameters: ClassVar[tuple[str, ...]] = ("eps", "quad", "cubic", "skew")
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "input_offset": ("eps",),
+        "static_bend": ("quad", "cubic"),
+        "saturation_skew": ("skew",),
+    }
     meaning: ClassVar[str] = (
         "the ascending and descending branches are not mirror images (the loop is "
         "wider, saturates sooner or is bent differently at one end of the stroke)"

@@ -46,6 +46,12 @@ class AbstractEffect(eqx.Module):
     name: ClassVar[str]
     parameters: ClassVar[tuple[str, ...]]
     meaning: ClassVar[str]
+    # The effect's functional forms: each a stable name (the findings' `form`,
+    # listed in the docs) with the parameters that are its own, in the order of
+    # `parameters`; every parameter belongs to one form. A form is on in a model
+    # when one of its gains is not zero; a form with no gain (a resonance switched
+    # on by the model's structure) is on with the effect.
+    forms: ClassVar[dict[str, tuple[str, ...]]]
     # Parameters searched on a log scale in refits (positive time constants, rates).
     log_scaled: ClassVar[tuple[str, ...]] = ()
     # Parameters that only shape the effect (inert while its gains are zero).
@@ -64,6 +70,21 @@ class AbstractEffect(eqx.Module):
     def gains(self) -> tuple[str, ...]:
         """The parameters whose zero switches the effect off."""
         return tuple(p for p in self.parameters if p not in self.shape_parameters)
+
+    def forms_on(self, model: AbstractHysteresisModel) -> tuple[str, ...]:
+        """The names of the forms on in `model` (none while the effect is off)."""
+        if not self.is_on(model):
+            return ()
+        on = []
+        for name, own in self.forms.items():
+            gains = [p for p in own if p in self.gains]
+            if not gains or any(float(getattr(model, p)) != 0.0 for p in gains):
+                on.append(name)
+        return tuple(on)
+
+    def form(self, model: AbstractHysteresisModel) -> str:
+        """The forms on in `model`, joined by "+" (a finding's `form`)."""
+        return "+".join(self.forms_on(model))
 
     def is_on(self, model: AbstractHysteresisModel) -> bool:
         return any(float(getattr(model, p)) != 0.0 for p in self.gains)

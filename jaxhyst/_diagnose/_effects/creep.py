@@ -38,6 +38,7 @@ class Creep(AbstractEffect):
         "creep_slow",
         "creep_slower",
     )
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {"relaxation_modes": parameters}
     meaning: ClassVar[str] = (
         "the output keeps drifting for seconds after the input changes or "
         "holds (slow relaxation driven by the input)"

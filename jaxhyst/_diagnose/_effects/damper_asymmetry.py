@@ -22,6 +22,10 @@ class DamperAsymmetry(AbstractEffect):
 
     name: ClassVar[str] = "asymmetry"
     parameters: ClassVar[tuple[str, ...]] = ("skew", "damping_skew")
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "saturation_skew": ("skew",),
+        "damping_skew": ("damping_skew",),
+    }
     meaning: ClassVar[str] = (
         "compression and extension differ (the piston rod's area on one side, "
         "valving or seals that resist one direction more)"

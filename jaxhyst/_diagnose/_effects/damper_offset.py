@@ -39,6 +39,7 @@ class DamperOffset(AbstractEffect):
     name: ClassVar[str] = "offset"
     parameters: ClassVar[tuple[str, ...]] = OFFSET_TERMS
     additive: ClassVar[tuple[str, ...]] = parameters
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {"spline": parameters}
     smooth: ClassVar[tuple[str, ...]] = parameters
     meaning: ClassVar[str] = (
         "the force's zero moves along the record, independently of the motion "

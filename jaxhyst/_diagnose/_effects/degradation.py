@@ -52,6 +52,10 @@ class Degradation(AbstractEffect):
         "peak_strength_degradation",
         "peak_stiffness_degradation",
     )
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "energy": ("strength_degradation", "stiffness_degradation"),
+        "peak_excursion": ("peak_strength_degradation", "peak_stiffness_degradation"),
+    }
     meaning: ClassVar[str] = (
         "the specimen weakens and/or softens as the test goes on (cracking, "
         "crushing, bond loss, fastener wear): later cycles carry less force at the "

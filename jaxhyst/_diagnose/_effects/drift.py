@@ -49,6 +49,7 @@ class Drift(AbstractEffect):
     name: ClassVar[str] = "drift"
     parameters: ClassVar[tuple[str, ...]] = ("offset", "trend", "curvature", "wander")
     additive: ClassVar[tuple[str, ...]] = parameters
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {"legendre": parameters}
     meaning: ClassVar[str] = (
         "the output has an offset or slow wander that does not follow the input "
         "(sensor offset, thermal drift)"

@@ -31,6 +31,10 @@ class DriverLag(AbstractEffect):
 
     name: ClassVar[str] = "driver_lag"
     parameters: ClassVar[tuple[str, ...]] = ("command_lag", "field_lag")
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "first_order": ("command_lag",),
+        "second_stage": ("field_lag",),
+    }
     needs: ClassVar[str | None] = "field_dependence"
     meaning: ClassVar[str] = (
         "the field lags the command: after each switch the force reaches its new "

@@ -37,6 +37,7 @@ class Dynamics(AbstractEffect):
 
     name: ClassVar[str] = "dynamics"
     parameters: ClassVar[tuple[str, ...]] = ("natural_frequency", "damping_ratio")
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {"second_order": parameters}
     meaning: ClassVar[str] = (
         "the stage's mass and damping matter: the output lags (and may ring) after "
         "fast changes (a mechanical resonance)"

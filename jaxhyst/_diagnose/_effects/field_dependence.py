@@ -35,6 +35,7 @@ class FieldDependence(AbstractEffect):
         "ignores the command)"
     )
     shape_parameters: ClassVar[tuple[str, ...]] = ("field_knee",)
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {"field_scaled": parameters}
 
     def bounds(self, name, value, scales: RefitScales):
         # A field that weakens the fluid by more than 90 % is not an MR damper;

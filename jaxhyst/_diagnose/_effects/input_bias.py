@@ -26,6 +26,10 @@ class InputBias(AbstractEffect):
     )
     log_scaled: ClassVar[tuple[str, ...]] = ("input_time",)
     shape_parameters: ClassVar[tuple[str, ...]] = ("input_time",)
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "time_shift": ("phi",),
+        "first_order_network": ("input_lead", "input_time"),
+    }
 
     def bounds(self, name, value, scales: RefitScales):
         if name == "input_time":

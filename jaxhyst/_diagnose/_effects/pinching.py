@@ -40,13 +40,13 @@ class Pinching(AbstractEffect):
         "bolts slipping in their holes, gaps in connections)"
     )
     log_scaled: ClassVar[tuple[str, ...]] = ("pinch_width", "pinch_rate", "slip_window")
-    # Each form's gain and the shape parameters inert while it is zero.
+    # Each form's gain, then the shape parameters inert while it is zero.
     forms: ClassVar[dict[str, tuple[str, ...]]] = {
-        "pinch": ("pinch_shift", "pinch_width", "pinch_rate"),
-        "slip_length": ("slip_window",),
+        "slip_lock": ("pinch", "pinch_shift", "pinch_width", "pinch_rate"),
+        "series_slip": ("slip_length", "slip_window"),
     }
     shape_parameters: ClassVar[tuple[str, ...]] = tuple(
-        p for shape in forms.values() for p in shape
+        p for own in forms.values() for p in own[1:]
     )
 
     def bounds(self, name, value, scales: RefitScales):
@@ -61,14 +61,7 @@ class Pinching(AbstractEffect):
 
     def fitted_dof(self, model):
         """A form left at zero fitted neither its gain nor its inert shape."""
-        return max(
-            sum(
-                1 + len(shape)
-                for gain, shape in self.forms.items()
-                if float(getattr(model, gain)) != 0.0
-            ),
-            1,
-        )
+        return max(sum(len(self.forms[name]) for name in self.forms_on(model)), 1)
 
     def starting_points(self, current, step, scales):
         # The score only sees `pinch` at the default shape; a pinched loop's shape

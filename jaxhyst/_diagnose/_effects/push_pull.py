@@ -24,6 +24,10 @@ class PushPullAsymmetry(AbstractEffect):
 
     name: ClassVar[str] = "asymmetry"
     parameters: ClassVar[tuple[str, ...]] = ("yield_skew", "stiffness_skew")
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "yield_skew": ("yield_skew",),
+        "stiffness_skew": ("stiffness_skew",),
+    }
     meaning: ClassVar[str] = (
         "push and pull differ (unsymmetric reinforcement, axial load, a wall "
         "rocking on one toe, a connection loaded against its grain)"

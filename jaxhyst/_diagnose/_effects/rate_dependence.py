@@ -34,6 +34,10 @@ class RateDependence(AbstractEffect):
     )
     log_scaled: ClassVar[tuple[str, ...]] = ("viscous_time",)
     shape_parameters: ClassVar[tuple[str, ...]] = ("viscous_time",)
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {
+        "rate_scaled_loop": ("rate_gain", "rate_amplitude"),
+        "kelvin_voigt": ("viscous", "viscous_time"),
+    }
 
     def bounds(self, name, value, scales: RefitScales):
         if name == "viscous_time":

@@ -18,6 +18,7 @@ class Rolloff(AbstractEffect):
 
     name: ClassVar[str] = "rolloff"
     parameters: ClassVar[tuple[str, ...]] = ("rolloff",)
+    forms: ClassVar[dict[str, tuple[str, ...]]] = {"series_dashpot": parameters}
     meaning: ClassVar[str] = (
         "the force rolls off at low velocity near reversals: the fluid's yield "
         "element acts through an internal dashpot in series (Spencer et al.'s c1), "

@@ -1,0 +1,51 @@
+"""Every effect names its functional forms; a finding names the forms on."""
+
+import re
+
+import pytest
+
+import jaxhyst as jh
+
+
+FAMILIES = (
+    jh.families.PiezoFamily(),
+    jh.families.StructuralFamily(),
+    jh.families.DamperFamily(),
+)
+
+
+@pytest.mark.parametrize("family", FAMILIES, ids=lambda f: f.name)
+def test_every_parameter_of_an_effect_is_in_one_named_form(family):
+    for effect in family.catalogue:
+        owned = [p for params in effect.forms.values() for p in params]
+        assert sorted(owned) == sorted(effect.parameters), effect.name
+        for form in effect.forms:
+            assert re.fullmatch(r"[a-z][a-z_]*", form), (effect.name, form)
+
+
+def test_a_finding_names_the_forms_on():
+    family = jh.families.StructuralFamily()
+    pinching = family.effect("pinching")
+    degradation = family.effect("degradation")
+    model = jh.StructuralBoucWen(10.0, 0.05, 1.0, 0.3, 0.2, 1.5)
+    assert pinching.form(model) == "" and pinching.forms_on(model) == ()
+    # A shape parameter set while its gain is zero does not switch its form on.
+    slip = model.replace(slip_length=0.3, pinch_width=0.5)
+    assert pinching.form(slip) == "series_slip"
+    both = slip.replace(pinch=0.4)
+    assert pinching.form(both) == "slip_lock+series_slip"
+    assert pinching.fitted_dof(both) == len(pinching.parameters)
+    assert pinching.fitted_dof(slip) == 2
+    both_drivers = model.replace(
+        strength_degradation=0.1, peak_stiffness_degradation=0.2
+    )
+    assert degradation.form(both_drivers) == "energy+peak_excursion"
+
+
+def test_a_resonance_is_on_by_structure():
+    dynamics = jh.families.PiezoFamily().effect("dynamics")
+    base = jh.PiezoBoucWen(1.0, 0.3, -1.0, 0.002, -0.001, 1.5)
+    path = jh.sample(jh.paper_u1(), 100.0)
+    extended = jh.ExtendedPiezo.around(base, path)
+    assert dynamics.form(extended) == ""
+    assert dynamics.form(extended.with_dynamics(800.0, 0.3)) == "second_order"
