@@ -198,14 +198,23 @@ def test_a_close_rival_never_validated_alone_does_not_replace_the_finding(stage)
     )
 
 
-def test_an_effect_that_failed_validation_is_a_rival_too(stage):
+def test_an_effect_that_failed_validation_is_a_rival_too(stage, monkeypatch):
     """Pinching failed validation while drift stood in for it: it is still
-    refitted in drift's place, and the record cannot tell the two apart. Without
+    refitted in drift's place (polished from its failed refit's values, without a
+    swarm of its own), and the record cannot tell the two apart. Without
     whole-catalogue rivals it is never compared."""
     run, swaps = stage
+    refit, swarmed = engine._refit, []
+
+    def recording_keys(ctx, state, start, names, **options):
+        swarmed.append(options.get("key") is not None)
+        return refit(ctx, state, start, names, **options)
+
+    monkeypatch.setattr(engine, "_refit", recording_keys)
     mse = {"drift": 17.0, "pinching": 18.0, "asymmetry": 40.0}
     state = run("drift", mse, failed=("pinching", "asymmetry"), se=2.0)
     assert swaps == []
+    assert swarmed == [False, False]
     finding = state.findings[0]
     assert {r.effect for r in finding.rivals} == {"pinching", "asymmetry"}
     assert not finding.decided

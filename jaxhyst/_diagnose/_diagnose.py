@@ -1343,6 +1343,10 @@ def _swapped_in(
     key = jax.random.fold_in(
         ctx.key, 7919 + 97 * position + family.effect_names.index(name)
     )
+    if name not in state.passed_trials and name not in state.untried:
+        # A rival of the whole catalogue starts from the best of its starting
+        # points and its failed refit (which had its swarm), and is polished only.
+        key = None
     try:
         swapped = _refit_or_none(ctx, state, start, names, max_steps=20, key=key)
     except Exception as error:  # a bug in one rival's refit: the finding stays
