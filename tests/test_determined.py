@@ -30,17 +30,34 @@ def test_one_determined_gain_determines_an_effect():
     drift = STRUCTURAL.effect("drift")
     values = {"offset": 0.5, "trend": 1e-4, "curvature": 0.0, "wander": 0.0}
     errors = {"offset": 0.01, "trend": 1e-3, "curvature": 1.0, "wander": math.nan}
-    assert drift.undetermined(values, errors) == ()
+    assert drift.undetermined(values, errors, {}) == ()
     errors["offset"] = 0.8
-    assert drift.undetermined(values, errors) == drift.gains
+    assert drift.undetermined(values, errors, {}) == drift.gains
+
+
+def test_gains_that_trade_off_are_determined_together():
+    """A delay and a lead network, each within 1 standard error of zero, whose
+    errors are strongly anticorrelated: their sum, the time shift, is determined.
+    The same values with the errors positively correlated determine nothing."""
+    bias = PIEZO.effect("input_bias")
+    values = {"phi": 1.0, "input_lead": 1.0, "input_time": 0.01}
+    errors = {"phi": 1.5, "input_lead": 1.5, "input_time": 0.1}
+
+    def correlated(rho):
+        return {"phi": {"input_lead": rho}, "input_lead": {"phi": rho}}
+
+    assert not determined(values["phi"], errors["phi"])
+    assert bias.undetermined(values, errors, correlated(-0.95)) == ()
+    assert bias.undetermined(values, errors, correlated(0.95)) == bias.gains
+    assert bias.undetermined(values, errors, {}) == bias.gains
 
 
 def test_a_resonance_is_determined_by_its_frequency():
     dynamics = PIEZO.effect("dynamics")
     values = {"natural_frequency": 850.0, "damping_ratio": 0.2}
-    assert dynamics.undetermined(values, {"natural_frequency": 30.0}) == ()
+    assert dynamics.undetermined(values, {"natural_frequency": 30.0}, {}) == ()
     undetermined = {"natural_frequency": 2e5, "damping_ratio": 200.0}
-    assert dynamics.undetermined(values, undetermined) == ("natural_frequency",)
+    assert dynamics.undetermined(values, undetermined, {}) == ("natural_frequency",)
 
 
 def test_an_undetermined_finding_leaves_the_model_and_is_said(monkeypatch):
@@ -71,7 +88,7 @@ def test_an_undetermined_finding_leaves_the_model_and_is_said(monkeypatch):
     state = engine._State(
         current=model, predicted=np.ones(4), free=free, findings=found
     )
-    dropped = engine._undetermined(ctx, state.findings)  # pyright: ignore[reportArgumentType]
+    dropped = engine._undetermined(ctx, state.findings, {})  # pyright: ignore[reportArgumentType]
     assert list(dropped) == ["drift"]
     assert "offset = 0 ± 5 kN" in dropped["drift"]
     state = engine._without(ctx, state, dropped)  # pyright: ignore[reportArgumentType]

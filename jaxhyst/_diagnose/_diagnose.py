@@ -66,7 +66,7 @@ from ._score import (
     project_off,
     score_statistic,
 )
-from ._uncertainty import standard_errors
+from ._uncertainty import errors_and_correlations
 from ._unexplained import unexplained_structure
 
 
@@ -1601,18 +1601,23 @@ def _described(
     state: _State,
     final_model: AbstractHysteresisModel,
     final_pred: np.ndarray,
-) -> tuple[Finding, ...]:
+) -> tuple[tuple[Finding, ...], dict[str, dict[str, float]]]:
     """Each finding with its values in the final model, their standard errors (from
     the final model's output sensitivities) and units, their physical reading, and
-    a flag on a large move since adoption."""
+    a flag on a large move since adoption; and the free parameters' correlations
+    (parameter -> parameter -> correlation)."""
     if not state.findings:
-        return ()
+        return (), {}
     ctx.progress.say("standard errors of the final model's parameters")
     names = list(state.free)
     # The effects left off are held at zero: their terms cost nothing here.
     held = final_model.held_at_zero(idle_gains(ctx.family, final_model, names))
     jac = ctx.records.jacobian(held, names, ctx.solver)
-    errors = dict(zip(names, standard_errors(jac, ctx.y - final_pred).tolist()))
+    errors_array, corr = errors_and_correlations(jac, ctx.y - final_pred)
+    errors = dict(zip(names, errors_array.tolist()))
+    correlations = {
+        p: dict(zip(names, row.tolist())) for p, row in zip(names, np.asarray(corr))
+    }
     recording = ctx.recording
     described = []
     for index, finding in enumerate(state.findings):
@@ -1637,17 +1642,22 @@ def _described(
                 moved=_moved(finding.parameters, values, se, units, later),
             )
         )
-    return tuple(described)
+    return tuple(described), correlations
 
 
-def _undetermined(ctx: _Context, findings: tuple[Finding, ...]) -> dict[str, str]:
+def _undetermined(
+    ctx: _Context,
+    findings: tuple[Finding, ...],
+    correlations: dict[str, dict[str, float]],
+) -> dict[str, str]:
     """The findings whose defining parameters the record does not determine
-    (`AbstractEffect.undetermined`), with why in words."""
+    (`AbstractEffect.undetermined`, given the parameters' `correlations`), with
+    why in words."""
     why = {}
     for finding in findings:
         effect = ctx.family.effect(finding.effect)
         values, errors = finding.final_parameters, finding.standard_errors
-        names = effect.undetermined(values, errors)
+        names = effect.undetermined(values, errors, correlations)
         if names:
             why[finding.effect] = ", ".join(
                 f"{p} = {quantity(values[p], errors.get(p), finding.units[p])}"
@@ -1946,8 +1956,8 @@ def _diagnose(
             current=final_model,
             predicted=final_pred,
         )
-    findings = _described(ctx, state, final_model, final_pred)
-    dropped = _undetermined(ctx, findings)
+    findings, correlations = _described(ctx, state, final_model, final_pred)
+    dropped = _undetermined(ctx, findings, correlations)
     if dropped:
         state = _without(ctx, state, dropped)
         final_model, final_pred = _final_refit(ctx, state)
@@ -1959,7 +1969,7 @@ def _diagnose(
                 current=final_model,
                 predicted=final_pred,
             )
-        findings = _described(ctx, state, final_model, final_pred)
+        findings, _ = _described(ctx, state, final_model, final_pred)
     # The noise draws the unexplained probes are judged against, from the key.
     draws_seed = int(jax.random.randint(jax.random.fold_in(key, 977), (), 0, 2**31 - 1))
     undecided = tuple(

@@ -119,14 +119,19 @@ class AbstractEffect(eqx.Module):
         )
 
     def undetermined(
-        self, values: dict[str, float], errors: dict[str, float]
+        self,
+        values: dict[str, float],
+        errors: dict[str, float],
+        correlations: dict[str, dict[str, float]],
     ) -> tuple[str, ...]:
-        """The defining parameters the record leaves undetermined (`determined`:
-        a finite standard error below the value's size), empty when the record
-        determines the effect. By default the gains define it, and one determined
-        gain is enough (a relaxation with one clear mode of four, a drift that is
-        an offset only): all of them when none is."""
-        if any(determined(values[p], errors.get(p)) for p in self.gains):
+        """The defining parameters the record leaves undetermined, empty when the
+        record determines the effect. By default the gains define it, together:
+        the gains with a finite standard error must be away from zero by more than
+        one standard error jointly (`jointly_determined`, the Wald statistic of
+        their `errors` and `correlations`), so that a delay and a lead network
+        that trade off against each other, each undetermined alone, still
+        determine a time shift between them. All the gains when they do not."""
+        if jointly_determined(self.gains, values, errors, correlations):
             return ()
         return self.gains
 
@@ -357,6 +362,38 @@ def determined(value: float, error: float | None) -> bool:
     if error is None or not_determined(error):
         return False
     return abs(value) > error
+
+
+def jointly_determined(
+    names: tuple[str, ...],
+    values: dict[str, float],
+    errors: dict[str, float],
+    correlations: dict[str, dict[str, float]],
+) -> bool:
+    """Whether the parameters `names` are away from zero by more than one standard
+    error jointly: the Wald statistic of those with a finite error, from their
+    `errors` and `correlations`, above chi-square's one-sigma point for as many
+    degrees of freedom (for one parameter: |value| above its error, `determined`)."""
+    from scipy.stats import chi2  # deferred: scipy.stats costs import time
+
+    known = [p for p in names if not not_determined(errors.get(p))]
+    if not known:
+        return False
+    se = np.array([errors[p] for p in known])
+    rho = np.array(
+        [
+            [1.0 if p == q else correlations.get(p, {}).get(q, 0.0) for q in known]
+            for p in known
+        ]
+    )
+    rho = np.where(np.isfinite(rho), rho, 0.0)
+    g = np.array([values[p] for p in known])
+    wald = float(g @ np.linalg.pinv(rho * np.outer(se, se)) @ g)
+    return wald > float(chi2.isf(ONE_SIGMA_TAIL, len(known)))
+
+
+# The two-sided tail beyond one standard error of a normal variable.
+ONE_SIGMA_TAIL = math.erfc(1 / math.sqrt(2))
 
 
 def quantity(value: float, error: float | None, unit: str = "1") -> str:

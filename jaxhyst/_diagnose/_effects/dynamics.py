@@ -57,7 +57,7 @@ class Dynamics(AbstractEffect):
             float(source.natural_frequency), float(source.damping_ratio)
         )
 
-    def undetermined(self, values, errors):
+    def undetermined(self, values, errors, correlations):
         # A resonance is its frequency: switched on by the model's structure, it
         # has no gain, and a frequency the record does not pin down is no finding.
         name = "natural_frequency"
