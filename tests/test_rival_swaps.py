@@ -37,15 +37,6 @@ def _effect_of(output: np.ndarray) -> str:
     return TAGS[int(output[0])]
 
 
-class _Refitted(types.SimpleNamespace):
-    """A stand-in refitted model: which effect it came from; every parameter 0."""
-
-    parameter_floors: dict[str, float] = {}
-
-    def __getattr__(self, name: str) -> float:
-        return 0.0
-
-
 @pytest.fixture
 def stage(monkeypatch):
     """(run, swaps): `run(adopted, heldout_mse, *, untried=(), se=1.0)` runs the stage
@@ -59,7 +50,7 @@ def stage(monkeypatch):
         (effect,) = {
             e.name for e in FAMILY.catalogue if set(added) <= set(e.parameters)
         }
-        return _Refitted(effect=effect)
+        return types.SimpleNamespace(effect=effect)
 
     def predict(ctx, model):
         # The model without the finding (`_validated_in_place`'s baseline) is
@@ -88,11 +79,9 @@ def stage(monkeypatch):
         se=1.0,
         comparison=None,
         policy=jh.families.AdoptionPolicy(),
-        passes_in_place=True,
     ):
         """... `failed`: effects that failed validation (neither validated nor
-        untried); `passes_in_place`: whether such a rival, validated in the
-        finding's place, passes."""
+        untried)."""
 
         def by_effect(ctx, state, kept, other):
             return heldout_mse[_effect_of(kept)], heldout_mse[_effect_of(other)], se
@@ -103,11 +92,6 @@ def stage(monkeypatch):
             MODEL,
             np.zeros(4),
             validation(),
-        )
-        monkeypatch.setattr(
-            engine,
-            "_validate",
-            lambda *args, **kwargs: validation(accepted=passes_in_place),
         )
         others = [n for n in heldout_mse if n != adopted]
         state = engine._State(
@@ -128,7 +112,6 @@ def stage(monkeypatch):
             family=FAMILY,
             policy=policy,
             hidden=frozenset(),
-            recording=None,
             fit_mask=np.ones(4, bool),
             progress=types.SimpleNamespace(say=lambda message: None),
             key=jax.random.key(0),
@@ -147,7 +130,6 @@ def stage(monkeypatch):
         "_best_start",
         lambda ctx, effect, without, step, scales, **_: (MODEL, float("inf")),
     )
-    monkeypatch.setattr(type(FAMILY), "locate", lambda self, recording, residual: {})
     return run, swaps
 
 
@@ -188,7 +170,6 @@ def test_a_close_rival_never_validated_alone_does_not_replace_the_finding(stage)
         {"drift": 17.0, "asymmetry": 14.0},
         untried=("asymmetry",),
         se=2.0,
-        passes_in_place=False,
     )
     assert swaps == []
     assert state.adopted == ("drift",)
@@ -226,20 +207,17 @@ def test_an_effect_that_failed_validation_is_a_rival_too(stage, monkeypatch):
     assert state.findings[0].decided
 
 
-def test_a_rival_that_failed_validation_and_wins_replaces_the_finding(stage):
+def test_a_rival_that_failed_validation_never_replaces_the_finding(stage):
     """Refitted in drift's place, pinching fits the held-out data better beyond
-    the resolution and passes validation there: it takes drift's place. Where it
-    does not pass there, the record is said not to decide."""
+    the resolution, but it did not pass validation on its own: drift stays,
+    undecided, and the ambiguity names both."""
     run, swaps = stage
-    mse = {"drift": 30.0, "pinching": 10.0}
-    state = run("drift", mse, failed=("pinching",))
-    assert swaps == [("drift", "pinching", True)]
-    assert state.adopted == ("pinching",)
-    swaps.clear()
-    state = run("drift", mse, failed=("pinching",), passes_in_place=False)
+    state = run("drift", {"drift": 30.0, "pinching": 10.0}, failed=("pinching",))
     assert swaps == []
     assert state.adopted == ("drift",)
     assert not state.findings[0].decided
+    (said,) = (a for a in state.ambiguities if "cannot tell drift" in a.statement)
+    assert set(said.undecided) == {"drift", "pinching"}
 
 
 def test_an_effect_replaced_within_the_resolution_does_not_come_back(stage):

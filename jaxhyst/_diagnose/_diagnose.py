@@ -1240,15 +1240,6 @@ def _rivals(ctx: _Context, state: _State) -> _State:
                     ctx, state, state.predicted, swapped_pred
                 )
                 margin = (rival_mse - kept_mse) / se if se > 0 else 0.0
-                if margin < 0 and trial is None and ctx.policy.whole_catalogue_rivals:
-                    trial, where_then = _validated_in_place(
-                        ctx,
-                        state,
-                        adopted_effect,
-                        alternative,
-                        (names, swapped),
-                        swapped_pred,
-                    )
                 if (
                     margin < 0
                     and trial is not None
@@ -1399,38 +1390,6 @@ def _rival_start(
         if _finite(predicted) and _mse(ctx.y - predicted, ctx.fit_mask) < start_mse:
             start = earlier
     return start
-
-
-def _validated_in_place(
-    ctx: _Context,
-    state: _State,
-    adopted_effect: AbstractEffect,
-    alternative: AbstractEffect,
-    swap: tuple[tuple[str, ...], AbstractHysteresisModel],
-    swapped_pred: np.ndarray,
-) -> tuple[_Trial | None, dict[str, Any] | None]:
-    """A rival that was never validated, refitted in a finding's place (`swap`:
-    the refit's free parameters and model), validated on the held-out samples against the model without that
-    finding: its trial and where the mismatch is without the finding, or Nones when
-    it does not pass (it then stays a rival only)."""
-    without_pred = _predict(ctx, adopted_effect.switch_off(state.current))
-    if not _finite(without_pred):
-        return None, None
-    names, swapped = swap
-    score = state.untried.get(alternative.name, state.latest_scores[alternative.name])
-    validation = _validate(
-        ctx,
-        dataclasses.replace(state, predicted=without_pred),
-        score,
-        alternative,
-        swapped_pred,
-        parameters=alternative.fitted_dof(swapped),
-    )
-    if not validation.accepted:
-        return None, None
-    where = ctx.family.locate(ctx.recording, ctx.y - without_pred)
-    score = dataclasses.replace(score, validation=validation, rejection=None)
-    return _Trial(score, swapped, swapped_pred, validation, free=names), where
 
 
 def _fitted_already(

@@ -61,9 +61,9 @@ class AdoptionPolicy(eqx.Module):
       other findings kept), not only against those that passed held-out validation
       or were significant but never refitted. A true effect can fail validation in
       an early round while another effect stands in for it, and would never be
-      compared with what took its place. A rival that fits the held-out data
-      better is validated in the finding's place; passed, it may replace the
-      finding as a validated rival does, else the two are said to be undecided.
+      compared with what took its place. Such a rival never replaces the finding
+      (it did not pass validation on its own); within the resolution, or better,
+      it leaves the finding undecided, said as an ambiguity.
     """
 
     significance: float = 1e-6
