@@ -100,3 +100,9 @@ def test_an_undetermined_finding_leaves_the_model_and_is_said(monkeypatch):
     assert said.undecided == ("drift",)
     assert "does not determine" in said.statement
     assert state.steps[-1].label.startswith("drift dropped")
+    # With nothing left named, the model is the base fit again (its first step).
+    base = jh.StructuralBoucWen(9.0, 0.05, 1.0, 0.3, 0.2, 1.5)
+    first = engine.DiagnosisStep("bouc-wen fitted", 1.0, 1.0, base)
+    only_drift = dataclasses.replace(state, findings=found[1:], steps=(first,))
+    state = engine._without(ctx, only_drift, dropped)  # pyright: ignore[reportArgumentType]
+    assert state.adopted == () and state.current is base

@@ -1647,6 +1647,12 @@ def _without(ctx: _Context, state: _State, dropped: dict[str, str]) -> _State:
                 (name,),
             )
         )
+    findings = tuple(f for f in state.findings if f.effect not in dropped)
+    if not findings:
+        # Nothing named: the base fit, as on a record where nothing was found (the
+        # base parameters moved with the dropped effects and would not come back
+        # by a refit from there).
+        current = state.steps[0].model
     return _with_step(
         ctx,
         state,
@@ -1654,7 +1660,7 @@ def _without(ctx: _Context, state: _State, dropped: dict[str, str]) -> _State:
         current=current,
         predicted=_predict(ctx, current),
         free=free,
-        findings=tuple(f for f in state.findings if f.effect not in dropped),
+        findings=findings,
         ambiguities=state.ambiguities + tuple(statements),
     )
 
