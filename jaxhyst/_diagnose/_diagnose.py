@@ -1550,6 +1550,22 @@ def _final_refit(
     return state.current, state.predicted
 
 
+def _refitted_on_every_sample(
+    ctx: _Context, state: _State
+) -> tuple[_State, AbstractHysteresisModel, np.ndarray]:
+    """`_final_refit`, with its step recorded when it moved the model."""
+    final_model, final_pred = _final_refit(ctx, state)
+    if final_model is not state.current:
+        state = _with_step(
+            ctx,
+            state,
+            "final refit on every sample",
+            current=final_model,
+            predicted=final_pred,
+        )
+    return state, final_model, final_pred
+
+
 # A parameter that moves by more than this share of its size between adoption and
 # the final model (and by more than the resolution in standard errors) is flagged.
 MOVE_SHARE = 0.25
@@ -1912,28 +1928,12 @@ def _diagnose(
     state = _backward(ctx, state)
     state = _rivals(ctx, state)
     advice = _advice(ctx, state)
-    final_model, final_pred = _final_refit(ctx, state)
-    if final_model is not state.current:
-        state = _with_step(
-            ctx,
-            state,
-            "final refit on every sample",
-            current=final_model,
-            predicted=final_pred,
-        )
+    state, final_model, final_pred = _refitted_on_every_sample(ctx, state)
     findings, correlations = _described(ctx, state, final_model, final_pred)
     dropped = _undetermined(ctx, findings, correlations)
     if dropped:
         state = _without(ctx, state, dropped)
-        final_model, final_pred = _final_refit(ctx, state)
-        if final_model is not state.current:
-            state = _with_step(
-                ctx,
-                state,
-                "final refit on every sample",
-                current=final_model,
-                predicted=final_pred,
-            )
+        state, final_model, final_pred = _refitted_on_every_sample(ctx, state)
         findings, _ = _described(ctx, state, final_model, final_pred)
     # The noise draws the unexplained probes are judged against, from the key.
     draws_seed = int(jax.random.randint(jax.random.fold_in(key, 977), (), 0, 2**31 - 1))
