@@ -40,6 +40,14 @@ def test_a_finding_names_the_forms_on():
         strength_degradation=0.1, peak_stiffness_degradation=0.2
     )
     assert degradation.form(both_drivers) == "energy+peak_excursion"
+    # With standard errors, a form whose gains the record does not determine is
+    # not named, unless none is.
+    errors = dict.fromkeys(degradation.parameters, 0.01)
+    assert degradation.form(both_drivers, errors) == "energy+peak_excursion"
+    errors["peak_stiffness_degradation"] = 1.0
+    assert degradation.form(both_drivers, errors) == "energy"
+    errors["strength_degradation"] = 1.0
+    assert degradation.form(both_drivers, errors) == "energy+peak_excursion"
 
 
 def test_a_resonance_is_on_by_structure():

@@ -1611,7 +1611,7 @@ def _described(
                 final_parameters=values,
                 standard_errors=se,
                 units=units,
-                form=effect.form(final_model),
+                form=effect.form(final_model, se, correlations),
                 meaning=effect.meaning,
                 reading=effect.reading(values, se, units),
                 moved=_moved(finding.parameters, values, se, units, later),

@@ -178,8 +178,8 @@ class Finding(eqx.Module):
 
     `parameters` are the values when it was adopted; `final_parameters`,
     `standard_errors` and `units` describe the final model (filled in once the
-    diagnosis is complete), `form` names the effect's forms on in it
-    (`AbstractEffect.forms`, joined by "+"), `reading` says what they mean
+    diagnosis is complete), `form` names the effect's forms on in it that the
+    record determines (`AbstractEffect.form`, joined by "+"), `reading` says what they mean
     physically and `moved` flags a large move between the two."""
 
     effect: str

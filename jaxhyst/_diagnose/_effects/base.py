@@ -82,9 +82,29 @@ class AbstractEffect(eqx.Module):
                 on.append(name)
         return tuple(on)
 
-    def form(self, model: AbstractHysteresisModel) -> str:
-        """The forms on in `model`, joined by "+" (a finding's `form`)."""
-        return "+".join(self.forms_on(model))
+    def form(
+        self,
+        model: AbstractHysteresisModel,
+        errors: dict[str, float] | None = None,
+        correlations: dict[str, dict[str, float]] | None = None,
+    ) -> str:
+        """The forms on in `model`, joined by "+" (a finding's `form`). With the
+        parameters' standard `errors` (and `correlations`), only those whose gains
+        the record determines (`jointly_determined`), unless it determines none of
+        them apart: a degradation driven by energy with a peak-excursion gain of
+        0.0002 +- 0.0017 is named `energy`."""
+        on = self.forms_on(model)
+        if errors is None:
+            return "+".join(on)
+        values = self.values(model)
+        named = []
+        for name in on:
+            gains = tuple(p for p in self.forms[name] if p in self.gains)
+            if not gains or jointly_determined(
+                gains, values, errors, correlations or {}
+            ):
+                named.append(name)
+        return "+".join(named or on)
 
     def is_on(self, model: AbstractHysteresisModel) -> bool:
         return any(float(getattr(model, p)) != 0.0 for p in self.gains)
