@@ -280,9 +280,7 @@ def test_a_killed_worker_a_malformed_record_and_a_deleted_folder(tmp_path, cache
 
 
 def test_an_interrupted_batch_resumes(tmp_path, cache):
-    # Enough records that the interrupt, sent once the first is done, comes before
-    # the last is, even on a loaded machine (with three, all were done once).
-    names = tuple(f"c{i}" for i in range(1, 9))
+    names = ("c1", "c2", "c3")
     for name in names:
         _recording(tmp_path / f"{name}.csv")
     manifest = _manifest(
@@ -297,7 +295,7 @@ def test_an_interrupted_batch_resumes(tmp_path, cache):
     assert "interrupted" in stderr
     assert not (out / LOCK).exists()
     finished = [n for n in names if (out / "records" / n / "done").exists()]
-    assert "c1" in finished and len(finished) < len(names)
+    assert "c1" in finished and len(finished) < 3
     assert not any(p.name.startswith(".") for p in (out / "records").iterdir())
     kept = {n: _outcome(out, n) for n in finished}
 
@@ -305,7 +303,7 @@ def test_an_interrupted_batch_resumes(tmp_path, cache):
     assert status == 0, stderr
     assert f"{len(finished)} already done" in stdout
     assert {n: _outcome(out, n) for n in finished} == kept
-    assert [row["status"] for row in _summary(out).values()] == ["done"] * len(names)
+    assert [row["status"] for row in _summary(out).values()] == ["done"] * 3
 
 
 def test_batch_help_and_scheduler_with_workers_refused(tmp_path, capsys):
