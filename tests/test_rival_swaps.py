@@ -106,7 +106,7 @@ def stage(monkeypatch):
             },
             untried={n: trial.score for n in untried},
             failed_trials={n: trial for n in failed},
-            latest_scores={n: trial.score for n in heldout_mse},
+            rounds=([dataclasses.replace(trial.score, effect=n) for n in heldout_mse],),
         )
         ctx = types.SimpleNamespace(
             family=FAMILY,

@@ -142,9 +142,6 @@ class _State(eqx.Module):
     # Each effect's latest refit that failed held-out validation: one more place a
     # rival's refit may start from (`AdoptionPolicy.whole_catalogue_rivals`).
     failed_trials: dict[str, _Trial] = eqx.field(default_factory=dict)
-    # Each effect's latest score (its Gauss-Newton step: where a rival's refit
-    # starts when the effect was never refitted).
-    latest_scores: dict[str, Score] = eqx.field(default_factory=dict)
     # Pairs of fitted models the record cannot tell apart (for the advice).
     contrasts: tuple["_Contrast", ...] = ()
     noise: NoiseModel | None = None
@@ -156,6 +153,15 @@ class _State(eqx.Module):
     @property
     def adopted(self) -> tuple[str, ...]:
         return tuple(f.effect for f in self.findings)
+
+    def latest_score(self, effect: str) -> Score | None:
+        """`effect`'s score in the latest round that scored it (its Gauss-Newton
+        step: where a rival's refit starts when the effect was never refitted)."""
+        for scores in reversed(self.rounds):
+            for score in scores:
+                if score.effect == effect:
+                    return score
+        return None
 
     @property
     def passed(self) -> frozenset[str]:
@@ -1088,7 +1094,6 @@ def _forward(ctx: _Context, state: _State) -> _State:
                 **{n: t for n, t in state.failed_trials.items() if n not in passed},
                 **failed,
             },
-            latest_scores={**state.latest_scores, **{c.effect: c for c in scores}},
         )
         if not passed:
             pair = _jointly(ctx, state, trials) if ctx.policy.pair_refits else None
@@ -1319,6 +1324,9 @@ def _swapped_in(
         p for p in alternative.parameters if p not in state.free
     )
     without = adopted_effect.switch_off(state.current)
+    key = jax.random.fold_in(
+        ctx.key, 7919 + 97 * position + family.effect_names.index(name)
+    )
     if name in state.passed_trials:
         trial, _ = state.passed_trials[name]
         start = alternative.take_from(without, trial.model)
@@ -1330,14 +1338,9 @@ def _swapped_in(
             ctx, alternative, without, state.untried[name].step, scales
         )
     else:
-        start = _rival_start(ctx, state, alternative, without)
-    key = jax.random.fold_in(
-        ctx.key, 7919 + 97 * position + family.effect_names.index(name)
-    )
-    if name not in state.passed_trials and name not in state.untried:
         # A rival of the whole catalogue starts from the best of its starting
         # points and its failed refit (which had its swarm), and is polished only.
-        key = None
+        start, key = _rival_start(ctx, state, alternative, without), None
     try:
         swapped = _refit_or_none(ctx, state, start, names, max_steps=20, key=key)
     except Exception as error:  # a bug in one rival's refit: the finding stays
@@ -1365,7 +1368,7 @@ def _rival_names(ctx: _Context, state: _State, effect: str) -> list[str]:
         e.name
         for e in _unscored(ctx, state)
         if e.name not in named
-        and e.name in state.latest_scores
+        and state.latest_score(e.name) is not None
         and (e.needs is None or e.needs in kept)
     ]
 
@@ -1381,7 +1384,8 @@ def _rival_start(
     its starting points from its latest score's step, with the effect on, and of
     its failed refit's values, when it had one."""
     scales = RefitScales(ctx.sample_rate, ctx.duration, state.natural)
-    step = state.latest_scores[alternative.name].step
+    score = state.latest_score(alternative.name)
+    step = {} if score is None else score.step
     start, start_mse = _best_start(ctx, alternative, without, step, scales, on=True)
     failed = state.failed_trials.get(alternative.name)
     if failed is not None:
