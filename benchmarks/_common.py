@@ -53,6 +53,31 @@ def cli_command() -> list[str]:
     return [sys.executable, "-m", "jaxhyst"]
 
 
+def add_baseline(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--baseline",
+        metavar="TREE",
+        help="also time the command from another checkout (a git worktree of an "
+        "earlier commit, put on PYTHONPATH), interleaved with this tree's, and give "
+        "this tree's medians as ratios of the baseline's",
+    )
+
+
+def launcher(baseline: str | None) -> list[str]:
+    """The command line's launcher: `python -m jaxhyst` when a baseline checkout
+    is timed too (the same launcher for both trees), else `cli_command()`."""
+    if baseline:
+        return [sys.executable, "-m", "jaxhyst"]
+    return cli_command()
+
+
+def from_tree(env: dict[str, str], tree: str | None) -> dict[str, str]:
+    """`env` with jaxhyst imported from checkout `tree` (None: this one)."""
+    if tree is None:
+        return env
+    return dict(env, PYTHONPATH=os.path.abspath(tree))
+
+
 def add_bytecode(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--no-bytecode-cache",

@@ -16,6 +16,13 @@ every module compiled from source in each process, as with PYTHONDONTWRITEBYTECO
 
     python benchmarks/diagnose_speed.py                 # 5 records (~8 min)
     python benchmarks/diagnose_speed.py --cases 1 --json out.json
+    python benchmarks/diagnose_speed.py --cases 2 --baseline ../base   # ratios
+
+With `--baseline TREE` (a checkout of an earlier commit) each record is also
+diagnosed by that tree's `python -m jaxhyst diagnose`, cold then warm in its own
+cache folder, right after this tree's (both through `python -m jaxhyst`), and this
+tree's medians are given as ratios of the baseline's. The two trees may name
+different effects (the engine may have changed between them): both are printed.
 """
 
 import argparse
@@ -48,6 +55,7 @@ def parse_args(argv=None):
     parser.add_argument("--duration", type=float, default=45.0, help="seconds (45)")
     parser.add_argument("--rate", type=float, default=1000.0, help="Hz (1000)")
     parser.add_argument("--seed", type=int, default=0, help="records and diagnosis")
+    common.add_baseline(parser)
     common.add_bytecode(parser)
     common.add_json(parser)
     args = parser.parse_args(argv)
@@ -79,11 +87,19 @@ def write_records(args, folder: str) -> list[str]:
 
 
 def run_diagnose(
-    record: str, cache: str, out: str, seed: int, pycache: str | None
+    record: str,
+    cache: str,
+    out: str,
+    seed: int,
+    pycache: str | None,
+    tree: str | None,
+    launcher: list[str],
 ) -> dict:
-    command = [*common.cli_command(), "diagnose", record, "--json", out, "--force"]
+    command = [*launcher, "diagnose", record, "--json", out, "--force"]
     command += ["--seed", str(seed)]
-    env = common.child_environment(pycache, JAXHYST_CACHE_DIR=cache)
+    env = common.from_tree(
+        common.child_environment(pycache, JAXHYST_CACHE_DIR=cache), tree
+    )
     start = time.perf_counter()
     done = subprocess.run(command, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - start
@@ -104,52 +120,93 @@ def run_diagnose(
     }
 
 
+def diagnose_cold_warm(args, folder, record, index, tree, label, pycache) -> dict:
+    """One record diagnosed by one tree: a fresh cache folder, cold then warm."""
+    cache = os.path.join(folder, f"cache-{index}-{label}")
+    os.mkdir(cache)
+    row = {"record": os.path.basename(record)}
+    for state in ("empty", "warm"):
+        common.log(f"{row['record']}: {label}: jaxhyst diagnose, {state} cache")
+        out = os.path.join(folder, f"diagnosis-{index}-{label}-{state}.json")
+        row[state] = run_diagnose(
+            record, cache, out, args.seed, pycache, tree, common.launcher(args.baseline)
+        )
+    row["warm_equals_cold"] = all(
+        row["warm"][k] == row["empty"][k] for k in ("named", "final_rmse")
+    )
+    print(
+        f"{row['record']:<18} {label:<10} empty {row['empty']['wall_s']:6.1f} s, "
+        f"warm {row['warm']['wall_s']:6.1f} s; named {row['warm']['named']}; "
+        f"warm = cold: {row['warm_equals_cold']}",
+        flush=True,
+    )
+    return row
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
     machine = common.machine_info(devices=False, load=True)
-    runs = []
+    trees = {"this": None}
+    if args.baseline:
+        trees["baseline"] = args.baseline
+    runs = {label: [] for label in trees}
     with tempfile.TemporaryDirectory() as folder:
         pycache = None if args.no_bytecode_cache else os.path.join(folder, "pyc")
         machine["bytecode_cached"] = pycache is not None
         if pycache is not None:
-            common.warm_bytecode(common.child_environment(pycache))
+            for tree in trees.values():
+                common.warm_bytecode(
+                    common.from_tree(common.child_environment(pycache), tree)
+                )
         records = write_records(args, folder)
         for index, record in enumerate(records):
-            cache = os.path.join(folder, f"cache-{index}")
-            os.mkdir(cache)
-            row = {"record": os.path.basename(record)}
-            for state in ("empty", "warm"):
-                common.log(f"{row['record']}: jaxhyst diagnose, {state} cache")
-                out = os.path.join(folder, f"diagnosis-{index}-{state}.json")
-                row[state] = run_diagnose(record, cache, out, args.seed, pycache)
-            row["warm_equals_cold"] = all(
-                row["warm"][k] == row["empty"][k] for k in ("named", "final_rmse")
-            )
-            runs.append(row)
-            print(
-                f"{row['record']:<18} empty {row['empty']['wall_s']:6.1f} s, warm "
-                f"{row['warm']['wall_s']:6.1f} s; named {row['warm']['named']}; "
-                f"warm = cold: {row['warm_equals_cold']}",
-                flush=True,
-            )
+            for label, tree in trees.items():
+                runs[label].append(
+                    diagnose_cold_warm(
+                        args, folder, record, index, tree, label, pycache
+                    )
+                )
     summary = {
-        state: common.median_or_nan([r[state]["wall_s"] for r in runs])
-        for state in ("empty", "warm")
+        label: {
+            state: common.median_or_nan([r[state]["wall_s"] for r in rows])
+            for state in ("empty", "warm")
+        }
+        for label, rows in runs.items()
     }
     common.print_machine(machine)
-    print(
-        f"jaxhyst diagnose, fresh process start -> exit, {args.cases} records of "
-        f"{args.duration:g} s at {args.rate:g} Hz: median {summary['empty']:.1f} s "
-        f"with an empty cache, {summary['warm']:.1f} s warm; warm results equal the "
-        f"cold ones on {sum(r['warm_equals_cold'] for r in runs)}/{len(runs)}"
-    )
+    for label, rows in runs.items():
+        print(
+            f"{label}: jaxhyst diagnose, fresh process start -> exit, {args.cases} "
+            f"records of {args.duration:g} s at {args.rate:g} Hz: median "
+            f"{summary[label]['empty']:.1f} s with an empty cache, "
+            f"{summary[label]['warm']:.1f} s warm; warm results equal the cold ones "
+            f"on {sum(r['warm_equals_cold'] for r in rows)}/{len(rows)}"
+        )
+    ratio = None
+    if args.baseline:
+        ratio = {
+            state: summary["this"][state] / summary["baseline"][state]
+            for state in ("empty", "warm")
+        }
+        print(
+            f"this tree / baseline ({os.path.abspath(args.baseline)}): empty "
+            f"{ratio['empty']:.2f}x, warm {ratio['warm']:.2f}x"
+        )
     if args.json:
         common.write_json(
             {
                 "config": vars(args),
                 "machine": machine,
-                "runs": runs,
-                "median_wall_s": summary,
+                "runs": runs["this"],
+                "median_wall_s": summary["this"],
+                "baseline": None
+                if not args.baseline
+                else {
+                    "tree": os.path.abspath(args.baseline),
+                    "runs": runs["baseline"],
+                    "median_wall_s": summary["baseline"],
+                    "ratio": ratio,
+                },
             },
             args.json,
         )

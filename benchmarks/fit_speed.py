@@ -88,6 +88,7 @@ def parse_args(argv=None):
         default=3,
         help="cold/warm pairs of fresh-process 'jaxhyst fit' runs (0: skip them)",
     )
+    common.add_baseline(parser)
     common.add_bytecode(parser)
     common.add_json(parser)
     parser.add_argument(
@@ -259,11 +260,19 @@ def run_child(args, kind):
     return result
 
 
-def run_cli_fit(args, cache_dir, out):
-    """One fresh `jaxhyst fit` process with JAXHYST_CACHE_DIR=cache_dir."""
-    cmd = [*common.cli_command(), "fit", args.recording, "--json", out, "--force"]
+def run_cli_fit(args, cache_dir, out, tree=None):
+    """One fresh `jaxhyst fit` process with JAXHYST_CACHE_DIR=cache_dir (jaxhyst
+    from `tree` when given)."""
+    cmd = [
+        *common.launcher(args.baseline),
+        "fit",
+        args.recording,
+        "--json",
+        out,
+        "--force",
+    ]
     cmd += ["--seed", str(args.seed)]
-    env = environment(args, JAXHYST_CACHE_DIR=cache_dir)
+    env = common.from_tree(environment(args, JAXHYST_CACHE_DIR=cache_dir), tree)
     start = time.perf_counter()
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
     wall_s = time.perf_counter() - start
@@ -292,18 +301,36 @@ def median(values):
     return values[mid] if len(values) % 2 else 0.5 * (values[mid - 1] + values[mid])
 
 
-def cli_cold_warm(args, folder, sigma):
+def cli_cold_warm(args, folder, sigma, tree=None, label="this tree"):
     """`--cli-repeats` pairs: a fresh cache folder, a cold run, then a warm run."""
     runs = {"empty": [], "warm": []}
+    for pair in cli_pairs(args, folder, sigma, {label: tree}):
+        for state in runs:
+            runs[state].append(pair[label][state])
+    return summarise(args, runs, sigma)
+
+
+def cli_pairs(args, folder, sigma, trees):
+    """Yield `--cli-repeats` rounds; in each, every tree of `trees` (label ->
+    checkout, None for this one) runs a cold then a warm fit in its own fresh cache
+    folder, one tree after the other, so slow and quiet minutes fall on all."""
     for i in range(args.cli_repeats):
-        cache_dir = os.path.join(folder, f"jax-cache-{i}")
-        os.mkdir(cache_dir)
-        for state in ("empty", "warm"):
-            common.log(
-                f"cli: jaxhyst fit, {state} cache, pair {i + 1}/{args.cli_repeats}"
-            )
-            out = os.path.join(folder, f"fit-{i}-{state}.json")
-            runs[state].append(run_cli_fit(args, cache_dir, out))
+        pair = {}
+        for t, (label, tree) in enumerate(trees.items()):
+            cache_dir = os.path.join(folder, f"jax-cache-{i}-{t}")
+            os.mkdir(cache_dir)
+            pair[label] = {}
+            for state in ("empty", "warm"):
+                common.log(
+                    f"cli: {label}: jaxhyst fit, {state} cache, "
+                    f"round {i + 1}/{args.cli_repeats}"
+                )
+                out = os.path.join(folder, f"fit-{i}-{t}-{state}.json")
+                pair[label][state] = run_cli_fit(args, cache_dir, out, tree)
+        yield pair
+
+
+def summarise(args, runs, sigma):
     summary = {}
     for state, results in runs.items():
         summary[state] = {
@@ -315,7 +342,14 @@ def cli_cold_warm(args, folder, sigma):
         }
     return {
         "command": " ".join(
-            [*common.cli_command(), "fit", "RECORDING", "--json", "OUT", "--force"]
+            [
+                *common.launcher(args.baseline),
+                "fit",
+                "RECORDING",
+                "--json",
+                "OUT",
+                "--force",
+            ]
         ),
         "repeats": args.cli_repeats,
         "runs": runs,
@@ -326,6 +360,82 @@ def cli_cold_warm(args, folder, sigma):
             for c, w in zip(runs["empty"], runs["warm"])
         ),
     }
+
+
+def cli_against_baseline(args, folder, sigma):
+    """This tree's and `--baseline`'s CLI fits, interleaved round by round; this
+    tree's median wall times as ratios of the baseline's."""
+    common.warm_bytecode(common.from_tree(environment(args), args.baseline))
+    trees = {"this tree": None, "baseline": args.baseline}
+    runs = {label: {"empty": [], "warm": []} for label in trees}
+    for pair in cli_pairs(args, folder, sigma, trees):
+        for label in trees:
+            for state in ("empty", "warm"):
+                runs[label][state].append(pair[label][state])
+    results = {label: summarise(args, runs[label], sigma) for label in trees}
+    return {
+        "baseline_tree": os.path.abspath(args.baseline),
+        **results,
+        "ratio": {
+            state: results["this tree"]["summary"][state]["median_wall_s"]
+            / results["baseline"]["summary"][state]["median_wall_s"]
+            for state in ("empty", "warm")
+        },
+        "same_fit_as_baseline": all(
+            a["rmse"] == b["rmse"]
+            for a, b in zip(runs["this tree"]["warm"], runs["baseline"]["warm"])
+        ),
+    }
+
+
+def print_cli(cli):
+    """The table of one tree's cold and warm CLI fits."""
+    print(
+        f"jaxhyst fit (CLI), fresh process start -> exit, median of "
+        f"{cli['repeats']}, JAXHYST_CACHE_DIR a new temporary folder per pair:"
+    )
+    print(
+        f"  {'cache':<8}{'wall (s)':>10}{'identify (s)':>14}{'RMSE/sigma':>12}"
+        f"{'entries':>9}{'MB':>7}"
+    )
+    for state, row in cli["summary"].items():
+        print(
+            f"  {state:<8}{row['median_wall_s']:>10.2f}"
+            f"{row['median_identify_total_s']:>14.2f}"
+            f"{row['median_rmse_over_sigma']:>12.4f}"
+            f"{row['cache_entries_after'][0]:>9d}"
+            f"{row['cache_bytes_after'][0] / 1e6:>7.2f}"
+        )
+    print(
+        f"  warm start is {cli['speedup']:.2f}x faster; warm fits identical to "
+        f"the cold ones: {'yes' if cli['warm_fit_equals_cold'] else 'NO'}"
+    )
+    warned = [w for state in cli["runs"].values() for r in state for w in r["warnings"]]
+    if warned:
+        print(f"  warnings on stderr: {warned[0]!r} ({len(warned)} in all)")
+
+
+def print_against_baseline(cli):
+    """This tree's and the baseline's CLI fits, and their ratios."""
+    print(
+        f"jaxhyst fit (CLI, python -m jaxhyst), fresh process start -> exit, median "
+        f"of {cli['this tree']['repeats']} interleaved rounds, a new cache folder per "
+        f"round and tree; baseline: {cli['baseline_tree']}"
+    )
+    print(f"  {'cache':<8}{'baseline (s)':>14}{'this tree (s)':>15}{'ratio':>8}")
+    for state in ("empty", "warm"):
+        base = cli["baseline"]["summary"][state]["median_wall_s"]
+        this = cli["this tree"]["summary"][state]["median_wall_s"]
+        print(f"  {state:<8}{base:>14.2f}{this:>15.2f}{cli['ratio'][state]:>8.2f}")
+    print(
+        "  same final RMSE as the baseline: "
+        + ("yes" if cli["same_fit_as_baseline"] else "NO")
+        + "; warm fits identical to the cold ones: "
+        + ", ".join(
+            f"{label} {'yes' if cli[label]['warm_fit_equals_cold'] else 'NO'}"
+            for label in ("this tree", "baseline")
+        )
+    )
 
 
 def main(argv=None):
@@ -352,7 +462,9 @@ def main(argv=None):
         run_child(args, "make")  # also caches the bytecode, before any timing
         fit = run_child(args, "fit")
         cli = None
-        if args.cli_repeats > 0:
+        if args.cli_repeats > 0 and args.baseline:
+            cli = cli_against_baseline(args, folder, fit["sigma"])
+        elif args.cli_repeats > 0:
             cli = cli_cold_warm(args, folder, fit["sigma"])
         paper = None
         if not args.skip_paper:
@@ -402,33 +514,12 @@ def main(argv=None):
         f"  final RMSE / sigma = {fit['rmse_over_sigma']:.4f}   (RMSE vs the clean "
         f"truth / sigma = {fit['rmse_vs_clean_over_sigma']:.4f})"
     )
-    if cli is not None:
+    if cli is not None and args.baseline:
         print()
-        print(
-            f"jaxhyst fit (CLI), fresh process start -> exit, median of "
-            f"{cli['repeats']}, JAXHYST_CACHE_DIR a new temporary folder per pair:"
-        )
-        print(
-            f"  {'cache':<8}{'wall (s)':>10}{'identify (s)':>14}{'RMSE/sigma':>12}"
-            f"{'entries':>9}{'MB':>7}"
-        )
-        for state, row in cli["summary"].items():
-            print(
-                f"  {state:<8}{row['median_wall_s']:>10.2f}"
-                f"{row['median_identify_total_s']:>14.2f}"
-                f"{row['median_rmse_over_sigma']:>12.4f}"
-                f"{row['cache_entries_after'][0]:>9d}"
-                f"{row['cache_bytes_after'][0] / 1e6:>7.2f}"
-            )
-        print(
-            f"  warm start is {cli['speedup']:.2f}x faster; warm fits identical to "
-            f"the cold ones: {'yes' if cli['warm_fit_equals_cold'] else 'NO'}"
-        )
-        warned = [
-            w for state in cli["runs"].values() for r in state for w in r["warnings"]
-        ]
-        if warned:
-            print(f"  warnings on stderr: {warned[0]!r} ({len(warned)} in all)")
+        print_against_baseline(cli)
+    elif cli is not None:
+        print()
+        print_cli(cli)
     if paper is not None:
         print()
         print(
