@@ -1308,6 +1308,110 @@ def _rivals(ctx: _Context, state: _State) -> _State:
     return state
 
 
+def _forms_apart(ctx: _Context, state: _State) -> _State:
+    """Each finding whose effect has several forms on, refitted in each of them
+    alone (`AdoptionPolicy.forms_apart`) and compared with its forms together on
+    the held-out samples, in standard errors of the difference. A form alone within
+    the resolution of the forms together, or better, takes their place; of several,
+    the one with the lowest held-out error, and the forms within the resolution of
+    it are said: the record cannot tell them apart."""
+    if not ctx.policy.forms_apart:
+        return state
+    for finding in state.findings:
+        effect = ctx.family.effect(finding.effect)
+        on = effect.forms_on(state.current)
+        if len(on) < 2 or any(
+            not set(effect.forms[form]) & set(effect.gains) for form in on
+        ):
+            continue
+        ctx.progress.say(f"refitting {finding.effect} in each of its forms alone")
+        alone = functools.partial(_in_form_alone, ctx, state, effect)
+        with side_by_side(alone, on) as refits:
+            fitted = [each for each in refits if each is not None]
+        kept_mse = _mse(ctx.y - state.predicted, ctx.hold_mask)
+        simpler = []
+        for each in fitted:
+            _, form_mse, se = _heldout_comparison(
+                ctx, state, state.predicted, each.predicted
+            )
+            if form_mse - kept_mse < RESOLVED_SIGMA * se:
+                simpler.append(each)
+        if not simpler:
+            continue
+        best = min(simpler, key=lambda r: r.heldout_mse)
+        close = []
+        for each in fitted:
+            if each is best:
+                continue
+            _, other_mse, se = _heldout_comparison(
+                ctx, state, best.predicted, each.predicted
+            )
+            if other_mse - best.heldout_mse < RESOLVED_SIGMA * se:
+                close.append(each)
+        statements = ()
+        if close:
+            figures = "; ".join(
+                f"{r.form} {math.sqrt(r.heldout_mse):.3g}" for r in (best, *close)
+            )
+            statements = (
+                Ambiguity(
+                    f"cannot tell the forms of {finding.effect} apart on this "
+                    f"recording: {best.form} alone and "
+                    f"{', '.join(r.form for r in close)} alone each fit the "
+                    f"held-out samples within the {RESOLVED_SIGMA:.0f} standard "
+                    f"errors this comparison needs (held-out RMSE {figures}). The "
+                    f"fit keeps {best.form}, with the lowest held-out error; the "
+                    f"record shows {finding.effect}, not which of these forms it "
+                    "takes.",
+                ),
+            )
+        ctx.progress.say(f"{finding.effect}: its {best.form} form alone kept")
+        state = _with_step(
+            ctx,
+            state,
+            f"{finding.effect} in its {best.form} form alone",
+            current=best.model,
+            predicted=best.predicted,
+            free=best.free,
+            ambiguities=state.ambiguities + statements,
+        )
+    return state
+
+
+class _FormAlone(eqx.Module):
+    """A finding refitted in one of its forms alone: the form, the model, its
+    output and held-out MSE, and the refit's free parameters."""
+
+    form: str
+    model: AbstractHysteresisModel
+    predicted: np.ndarray
+    heldout_mse: float
+    free: tuple[str, ...]
+
+
+def _in_form_alone(
+    ctx: _Context, state: _State, effect: AbstractEffect, form: str
+) -> _FormAlone | None:
+    """The finding `effect` refitted in its form `form` alone (the other forms'
+    parameters held, their gains at zero), polished from its values in the current
+    model; None where that refit is degenerate or fails."""
+    start, held = effect.alone(state.current, form)
+    free = tuple(p for p in state.free if p not in held)
+    try:
+        model = _refit_or_none(ctx, state, start, free, max_steps=20)
+    except Exception as error:  # a bug in one form's refit: the forms stay
+        _candidate_bug(f"{effect.name} in its form {form}", error)
+        return None
+    if model is None:
+        return None
+    predicted = _predict(ctx, model)
+    if not _finite(predicted):
+        return None
+    return _FormAlone(
+        form, model, predicted, _mse(ctx.y - predicted, ctx.hold_mask), free
+    )
+
+
 def _swapped_in(
     ctx: _Context,
     state: _State,
@@ -1931,6 +2035,7 @@ def _diagnose(
     state = _forward(ctx, state)
     state = _backward(ctx, state)
     state = _rivals(ctx, state)
+    state = _forms_apart(ctx, state)
     advice = _advice(ctx, state)
     state, final_model, final_pred = _refitted_on_every_sample(ctx, state)
     findings, correlations = _described(ctx, state, final_model, final_pred)

@@ -64,6 +64,13 @@ class AdoptionPolicy(eqx.Module):
       compared with what took its place. Such a rival never replaces the finding
       (it did not pass validation on its own); within the resolution, or better,
       it leaves the finding undecided, said as an ambiguity.
+    - `forms_apart`: refit each finding whose effect has several forms on in each
+      of them alone (the other forms' gains at zero, the other findings kept). A
+      form alone that fits the held-out samples within the resolution of the
+      forms together, or better, takes their place (the record does not need the
+      other forms' terms); of several, the one with the lowest held-out error, and
+      where others are within the resolution of it, the record cannot tell the
+      forms apart, said as an ambiguity.
     """
 
     significance: float = 1e-6
@@ -82,6 +89,7 @@ class AdoptionPolicy(eqx.Module):
     pair_refits: bool = False
     refit_on_structure: bool = False
     whole_catalogue_rivals: bool = True
+    forms_apart: bool = True
 
     def __check_init__(self):
         if not 0 < self.significance < 1:

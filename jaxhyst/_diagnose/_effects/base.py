@@ -106,6 +106,17 @@ class AbstractEffect(eqx.Module):
                 named.append(name)
         return "+".join(named or on)
 
+    def alone(
+        self, model: AbstractHysteresisModel, form: str
+    ) -> tuple[AbstractHysteresisModel, tuple[str, ...]]:
+        """`model` with this effect in its form `form` alone (the other forms'
+        gains at zero), and the parameters the other forms own (a refit of the
+        form alone holds them)."""
+        others = tuple(
+            p for name, own in self.forms.items() if name != form for p in own
+        )
+        return model.replace(**{p: 0.0 for p in others if p in self.gains}), others
+
     def is_on(self, model: AbstractHysteresisModel) -> bool:
         return any(float(getattr(model, p)) != 0.0 for p in self.gains)
 
