@@ -288,14 +288,15 @@ def test_an_interrupted_batch_resumes(tmp_path, cache):
     )
     out = tmp_path / "out"
     process = _start(manifest, out, cache, "--workers", "1", "--quiet")
-    _wait_for(lambda: (out / "records" / "c1" / "done").exists())
+    # Dask runs records of one size in no set order: the first one done, whichever.
+    _wait_for(lambda: any((out / "records" / n / "done").exists() for n in names))
     process.send_signal(signal.SIGINT)
     status, stdout, stderr = _finish(process)
-    assert status == 130, stderr
+    assert status == 130, (stdout, stderr)
     assert "interrupted" in stderr
     assert not (out / LOCK).exists()
     finished = [n for n in names if (out / "records" / n / "done").exists()]
-    assert "c1" in finished and len(finished) < 3
+    assert 1 <= len(finished) < 3
     assert not any(p.name.startswith(".") for p in (out / "records").iterdir())
     kept = {n: _outcome(out, n) for n in finished}
 
