@@ -53,6 +53,18 @@ def cache(tmp_path_factory) -> Path:
 
 
 def _start(manifest: Path, out: Path, cache: Path, *extra: str) -> subprocess.Popen:
+    """`jaxhyst batch` in a child process that answers Ctrl-C (SIGINT), whatever
+    this process's disposition: a process that starts with SIGINT ignored keeps it
+    ignored (the batch then runs to its end), and the tests run with it ignored
+    when a non-interactive shell starts them in the background (`cmd &`)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return _popen(manifest, out, cache, *extra)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _popen(manifest: Path, out: Path, cache: Path, *extra: str) -> subprocess.Popen:
     env = {
         **os.environ,
         "JAXHYST_CACHE_DIR": str(cache),
