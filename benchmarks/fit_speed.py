@@ -301,33 +301,30 @@ def median(values):
     return values[mid] if len(values) % 2 else 0.5 * (values[mid - 1] + values[mid])
 
 
-def cli_cold_warm(args, folder, sigma, tree=None, label="this tree"):
+def cli_cold_warm(args, folder, sigma):
     """`--cli-repeats` pairs: a fresh cache folder, a cold run, then a warm run."""
-    runs = {"empty": [], "warm": []}
-    for pair in cli_pairs(args, folder, sigma, {label: tree}):
-        for state in runs:
-            runs[state].append(pair[label][state])
+    runs = cli_runs(args, folder, {"this tree": None})["this tree"]
     return summarise(args, runs, sigma)
 
 
-def cli_pairs(args, folder, sigma, trees):
-    """Yield `--cli-repeats` rounds; in each, every tree of `trees` (label ->
-    checkout, None for this one) runs a cold then a warm fit in its own fresh cache
-    folder, one tree after the other, so slow and quiet minutes fall on all."""
+def cli_runs(args, folder, trees):
+    """`--cli-repeats` rounds; in each, every tree of `trees` (label -> checkout,
+    None for this one) runs a cold then a warm fit in its own fresh cache folder,
+    one tree after the other, so slow and quiet minutes fall on all. Returns each
+    tree's runs by cache state."""
+    runs = {label: {"empty": [], "warm": []} for label in trees}
     for i in range(args.cli_repeats):
-        pair = {}
         for t, (label, tree) in enumerate(trees.items()):
             cache_dir = os.path.join(folder, f"jax-cache-{i}-{t}")
             os.mkdir(cache_dir)
-            pair[label] = {}
             for state in ("empty", "warm"):
                 common.log(
                     f"cli: {label}: jaxhyst fit, {state} cache, "
                     f"round {i + 1}/{args.cli_repeats}"
                 )
                 out = os.path.join(folder, f"fit-{i}-{t}-{state}.json")
-                pair[label][state] = run_cli_fit(args, cache_dir, out, tree)
-        yield pair
+                runs[label][state].append(run_cli_fit(args, cache_dir, out, tree))
+    return runs
 
 
 def summarise(args, runs, sigma):
@@ -367,11 +364,7 @@ def cli_against_baseline(args, folder, sigma):
     tree's median wall times as ratios of the baseline's."""
     common.warm_bytecode(common.from_tree(environment(args), args.baseline))
     trees = {"this tree": None, "baseline": args.baseline}
-    runs = {label: {"empty": [], "warm": []} for label in trees}
-    for pair in cli_pairs(args, folder, sigma, trees):
-        for label in trees:
-            for state in ("empty", "warm"):
-                runs[label][state].append(pair[label][state])
+    runs = cli_runs(args, folder, trees)
     results = {label: summarise(args, runs[label], sigma) for label in trees}
     return {
         "baseline_tree": os.path.abspath(args.baseline),

@@ -1328,10 +1328,9 @@ def _forms_apart(ctx: _Context, state: _State) -> _State:
         alone = functools.partial(_in_form_alone, ctx, state, effect)
         with side_by_side(alone, on) as refits:
             fitted = [each for each in refits if each is not None]
-        kept_mse = _mse(ctx.y - state.predicted, ctx.hold_mask)
         simpler = []
         for each in fitted:
-            _, form_mse, se = _heldout_comparison(
+            kept_mse, form_mse, se = _heldout_comparison(
                 ctx, state, state.predicted, each.predicted
             )
             if form_mse - kept_mse < RESOLVED_SIGMA * se:
@@ -1343,10 +1342,10 @@ def _forms_apart(ctx: _Context, state: _State) -> _State:
         for each in fitted:
             if each is best:
                 continue
-            _, other_mse, se = _heldout_comparison(
+            best_mse, other_mse, se = _heldout_comparison(
                 ctx, state, best.predicted, each.predicted
             )
-            if other_mse - best.heldout_mse < RESOLVED_SIGMA * se:
+            if other_mse - best_mse < RESOLVED_SIGMA * se:
                 close.append(each)
         statements = ()
         if close:
