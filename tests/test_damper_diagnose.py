@@ -305,14 +305,17 @@ def test_the_family_s_choices():
     assert family.describe(where).startswith("mismatch ")
 
 
-# A quick diagnosis: a short swarm, the strongest candidate refitted per round, and
-# one number of polish steps (each distinct number compiles the polish anew).
+# A quick diagnosis: a short swarm, the strongest candidate refitted per round,
+# short polishes, and rivals only among the effects the rounds brought up (each
+# effect refitted is programs of its own to compile; the piezo family's quick
+# positive, test_diagnose.py, runs the default whole-catalogue rivals).
 QUICK_POLICY = jh.families.AdoptionPolicy(
     null_refit=True,
     noise_bound=True,
     refits_per_round=1,
     converge_steps=20,
     final_steps=20,
+    whole_catalogue_rivals=False,
 )
 QUICK_SWARM = jh.MPSO(num_particles=48, num_iterations=60)
 
@@ -328,7 +331,7 @@ def _quick_diagnosis(recording: jh.Recording) -> jh.Diagnosis:
 
 
 def test_a_large_concealed_field_dependence_is_named():
-    # 0.8 s at 3 kHz (2400 samples); measured 40 s on 2 cores.
+    # 0.8 s at 3 kHz (2400 samples).
     case = jh.synthetic.damper_recording(
         ("field_dependence",), key=jax.random.key(0), duration=0.8, size_sigmas=30.0
     )

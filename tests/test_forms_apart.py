@@ -130,3 +130,33 @@ def test_an_effect_in_one_form_alone_helper_holds_the_others():
     assert set(held) == {"strength_degradation", "stiffness_degradation"}
     assert model.peak_strength_degradation == BOTH.peak_strength_degradation
     assert model.strength_degradation == 0.0
+
+
+def test_what_was_said_of_a_dropped_findings_forms_goes_with_it(stage, monkeypatch):
+    # A finding dropped afterwards as undetermined: the statement that the record
+    # cannot tell its forms apart is no longer about a finding; other statements
+    # stay.
+    state, _ = stage({"together": 10.0, "energy": 11.5, "peak_excursion": 11.0})
+    assert any("cannot tell the forms" in a.statement for a in state.ambiguities)
+    other = engine.Ambiguity("cannot tell whether drift is present", ("drift",))
+    base = types.SimpleNamespace(model=DEGRADATION.switch_off(BOTH))
+    state = engine._State(
+        current=state.current,
+        predicted=state.predicted,
+        free=state.free,
+        findings=state.findings,
+        ambiguities=(other, *state.ambiguities),
+        steps=(base, *state.steps),
+    )
+    monkeypatch.setattr(engine, "_predict", lambda ctx, model: _output(10.0))
+    ctx = types.SimpleNamespace(
+        family=FAMILY,
+        progress=types.SimpleNamespace(say=lambda message: None),
+        y=np.zeros(4),
+        hold_mask=np.ones(4, bool),
+    )
+    dropped = engine._without(ctx, state, {"degradation": "its gains within 1 sigma"})  # pyright: ignore[reportArgumentType]
+    assert dropped.findings == ()
+    assert dropped.ambiguities[0] is other
+    assert not any("cannot tell the forms" in a.statement for a in dropped.ambiguities)
+    assert "does not determine" in dropped.ambiguities[-1].statement

@@ -240,15 +240,26 @@ def test_structural_diagnosis_rejects_records_it_cannot_read():
 
 
 _QUICK_SWARM = jh.MPSO(num_particles=48, num_iterations=60)
+# The strongest candidate refitted per round and rivals only among the effects the
+# rounds brought up: each effect refitted is programs of its own to compile (the
+# piezo family's quick positive, test_diagnose.py, runs the default policy).
+_QUICK_POLICY = jh.families.AdoptionPolicy(
+    refits_per_round=1, whole_catalogue_rivals=False
+)
 
 
 def test_a_large_concealed_pinching_is_named():
     x = _protocol()
     truth = _truth(x)
     family = jh.families.StructuralFamily()
-    swarm = _QUICK_SWARM
     pinched, sigma = _record(x, truth.replace(pinch=0.8, pinch_width=0.3))
-    diagnosis = jh.diagnose(pinched, key=jax.random.key(0), family=family, swarm=swarm)
+    diagnosis = jh.diagnose(
+        pinched,
+        key=jax.random.key(0),
+        family=family,
+        swarm=_QUICK_SWARM,
+        policy=_QUICK_POLICY,
+    )
     assert diagnosis.effects == ("pinching",)
     assert diagnosis.final_rmse < 1.3 * sigma
     assert diagnosis.findings[0].validation.heldout_gain > 0.5

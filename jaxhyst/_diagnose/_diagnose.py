@@ -1362,6 +1362,7 @@ def _forms_apart(ctx: _Context, state: _State) -> _State:
                     f"fit keeps {best.form}, with the lowest held-out error; the "
                     f"record shows {finding.effect}, not which of these forms it "
                     "takes.",
+                    concerns=(finding.effect,),
                 ),
             )
         ctx.progress.say(f"{finding.effect}: its {best.form} form alone kept")
@@ -1771,6 +1772,8 @@ def _without(ctx: _Context, state: _State, dropped: dict[str, str]) -> _State:
             )
         )
     findings = tuple(f for f in state.findings if f.effect not in dropped)
+    # What was said of a dropped finding's forms is no longer about a finding.
+    kept = tuple(a for a in state.ambiguities if not set(a.concerns) & set(dropped))
     if not findings:
         # Nothing named: the base fit, as on a record where nothing was found (the
         # base parameters moved with the dropped effects and would not come back
@@ -1784,7 +1787,7 @@ def _without(ctx: _Context, state: _State, dropped: dict[str, str]) -> _State:
         predicted=_predict(ctx, current),
         free=free,
         findings=findings,
-        ambiguities=state.ambiguities + tuple(statements),
+        ambiguities=kept + tuple(statements),
     )
 
 

@@ -127,10 +127,13 @@ class Rival(eqx.Module):
 class Ambiguity(eqx.Module):
     """A statement about the choice of effects: `undecided` names the effects the
     record cannot decide on (empty for a statement of a decision, e.g. an effect
-    dropped or replaced)."""
+    dropped or replaced); `concerns` names the findings a statement is about
+    without leaving them undecided (which of a finding's forms the record shows):
+    it goes with them when they are dropped."""
 
     statement: str
     undecided: tuple[str, ...] = ()
+    concerns: tuple[str, ...] = ()
 
 
 class Advice(eqx.Module):

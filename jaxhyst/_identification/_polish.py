@@ -113,8 +113,19 @@ def _objective(least_squares: bool):
     return residuals if least_squares else mean_square
 
 
+def _history_capacity(max_steps: int, window: int) -> int:
+    """Room for the start and one RMSE per window of `max_steps` steps, rounded up
+    to a power of two of at least 8: polishes of one problem with a different
+    number of steps (a candidate's, the converging and the final refit) share one
+    program, since `max_steps` itself is a traced value of the loop."""
+    windows = -(-max_steps // window)
+    return max(8, 1 << windows.bit_length())
+
+
 @eqx.filter_jit
-def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_gain):
+def _optimistix_loop(
+    solver, least_squares, problem, z0, max_steps, window, capacity, min_gain
+):
     fn = _objective(least_squares)
     options, tags = {}, frozenset()
     f_struct, aux_struct = jax.eval_shape(lambda: fn(z0, problem))
@@ -122,8 +133,7 @@ def _optimistix_loop(solver, least_squares, problem, z0, max_steps, window, min_
     # The loop carries the state's arrays; the rest (e.g. the Jacobian's jaxpr) is
     # fixed across steps, as in optimistix's own loop.
     state, static_state = eqx.partition(state, eqx.is_array)
-    windows = -(-max_steps // window)
-    history = jnp.full(windows + 1, jnp.nan)
+    history = jnp.full(capacity, jnp.nan)
     no = jnp.array(False)
     # Window -1 takes no step: it scores the start, through the one call of the
     # loss in the program (a second call would compile the simulation again).
@@ -234,13 +244,15 @@ class AbstractOptimistixPolish(AbstractPolish):
         return isinstance(self.solver(), optx.AbstractLeastSquaresSolver)
 
     def _loop_arguments(self, problem: Problem, z0: Array) -> tuple:
+        window = max(1, min(self.window, self.max_steps))
         return (
             self.solver(),
             self.least_squares,
             problem,
             jnp.asarray(z0),
-            self.max_steps,
-            max(1, min(self.window, self.max_steps)),
+            np.asarray(self.max_steps),
+            window,
+            _history_capacity(self.max_steps, window),
             jnp.asarray(stop_gain(self.min_gain, problem), dtype=float),
         )
 
