@@ -3,6 +3,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import lowered_while
 
 import jaxhyst as jh
 
@@ -366,31 +367,21 @@ def test_polishes_of_one_problem_with_other_step_counts_share_one_program():
     # A diagnosis polishes one model for a candidate's, the converging and the
     # final number of steps: the number of steps is a value of the compiled loop,
     # not part of the program.
-    import logging
-
     recording, _ = _recording(rate=100.0)
     problem = _problem(recording)
     z0 = problem.space.from_model(TEMPLATE)
     first = jh.LevenbergMarquardtPolish(max_steps=20, min_gain=1e-12)
     assert first.run(problem, z0).steps <= 20
-    compiled = []
 
-    class Catch(logging.Handler):
-        def emit(self, record):
-            compiled.append(record.getMessage())
+    def polish_with_other_step_counts():
+        for steps in (30, 40, 70):
+            polish = jh.LevenbergMarquardtPolish(max_steps=steps, min_gain=1e-12)
+            result = polish.run(problem, z0)
+            assert result.steps <= steps
+            assert len(result.loss_history) <= -(-steps // polish.window) + 1
 
-    handler = Catch()
-    logging.getLogger("jax").addHandler(handler)
-    try:
-        with jax.log_compiles():
-            for steps in (30, 40, 70):
-                polish = jh.LevenbergMarquardtPolish(max_steps=steps, min_gain=1e-12)
-                result = polish.run(problem, z0)
-                assert result.steps <= steps
-                assert len(result.loss_history) <= -(-steps // polish.window) + 1
-    finally:
-        logging.getLogger("jax").removeHandler(handler)
-    assert not [m for m in compiled if "Compiling" in m and "_optimistix_loop" in m]
+    _, lowered = lowered_while(polish_with_other_step_counts)
+    assert not [name for name in lowered if "_optimistix_loop" in name]
 
 
 def test_the_polish_program_scores_with_one_call_of_the_loss(monkeypatch):
