@@ -72,21 +72,9 @@ def _release_compiled_programs():
     module reuses what this one traced and compiled (measured on 8 fitting and CLI
     modules in one process: 287 s with a release after every module, 254 s)."""
     yield
-    if _memory_maps() > _max_map_count() // 3:
+    if _memory_maps() > _MAX_MAP_COUNT // 3:
         jax.clear_caches()
         gc.collect()
-    if os.environ.get("PROBE_MAPS"):
-        with open(os.environ["PROBE_MAPS"], "a") as log:
-            log.write(f"{os.getpid()} {_memory_maps()}\n")
-
-
-def _memory_maps() -> int:
-    """This process's memory maps (where /proc says; else as if at the limit)."""
-    try:
-        with open("/proc/self/maps") as maps:
-            return sum(1 for _ in maps)
-    except OSError:
-        return _max_map_count()
 
 
 def _max_map_count() -> int:
@@ -95,6 +83,18 @@ def _max_map_count() -> int:
             return int(limit.read())
     except (OSError, ValueError):
         return 65530
+
+
+_MAX_MAP_COUNT = _max_map_count()
+
+
+def _memory_maps() -> int:
+    """This process's memory maps (where /proc says; else as if at the limit)."""
+    try:
+        with open("/proc/self/maps") as maps:
+            return sum(1 for _ in maps)
+    except OSError:
+        return _MAX_MAP_COUNT
 
 
 # Long end-to-end variants run with `-m slow` only: each behaviour they check is
