@@ -197,6 +197,16 @@ SLOW = {
         "test_a_clean_record_names_nothing, and the piezo and structural positives "
         "name their effects"
     ),
+    # Session 42: .ci/run runs this one too.
+    "test_diagnose.py::test_a_large_concealed_effect_is_named_on_a_short_record": (
+        "102 s (70 s alone: a cold diagnosis compiles the programs of every effect "
+        "set it refits); the piezo family's positive check under the default "
+        "policy, run by .ci/run; in the fast suite the structural positive names "
+        "its effect and checks the same RMSE chain, units, standard errors and "
+        "final values, the CLI runs the piezo diagnosis end to end "
+        "(test_cli's contract test), and the rival and forms stages' decisions "
+        "are tested with stand-ins (test_rival_swaps, test_forms_apart)"
+    ),
     "test_batch.py::test_an_existing_cluster_runs_the_same_records": (
         "15 s; run by .ci/run; the batch's tasks run on a LocalCluster in the other "
         "batch tests, and only the client's address differs"

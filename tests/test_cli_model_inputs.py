@@ -92,10 +92,12 @@ def _one_error_line(text: str) -> str:
 
 
 def test_the_model_file_records_the_columns(fit_json):
-    entry = json.loads(fit_json.read_text())["model_file"]["recordings"][0]
+    data = json.loads(fit_json.read_text())
+    assert data["model"] == "SpencerDamper"
+    entry = data["model_file"]["recordings"][0]
     assert entry["inputs"] == ["u", "v"] and entry["output"] == "y"
     loaded = jh.load_model(fit_json)
-    assert isinstance(loaded.model, jh.SpencerDamper)
+    assert type(loaded.model) is jh.SpencerDamper
     assert loaded.columns == (("u", "v"), "y")
 
 

@@ -158,7 +158,8 @@ def test_creep_evidence_without_holds_reads_as_words_not_nan():
 
 
 def test_a_large_concealed_effect_is_named_on_a_short_record():
-    # The fast suite's positive check: a diagnosis that never names anything fails.
+    # The piezo family's positive check under the default policy (slow, run by
+    # .ci/run): a diagnosis that never names anything fails.
     case = _case(("drift",), seed=3)
     diagnosis = jh.diagnose(case.recording, key=jax.random.key(0))
     assert diagnosis.effects == ("drift",)

@@ -242,7 +242,8 @@ def test_structural_diagnosis_rejects_records_it_cannot_read():
 _QUICK_SWARM = jh.MPSO(num_particles=48, num_iterations=60)
 # The strongest candidate refitted per round and rivals only among the effects the
 # rounds brought up: each effect refitted is programs of its own to compile (the
-# piezo family's quick positive, test_diagnose.py, runs the default policy).
+# piezo family's positive, test_diagnose.py, runs the default policy; slow, and
+# run by .ci/run).
 _QUICK_POLICY = jh.families.AdoptionPolicy(
     refits_per_round=1, whole_catalogue_rivals=False
 )
@@ -267,6 +268,21 @@ def test_a_large_concealed_pinching_is_named():
     assert report["model"] == "bouc-wen"
     assert report["final"]["model"] == "bouc-wen+pinching"
     assert report["opensees"].startswith("uniaxialMaterial BWBN 1 ")
+    assert report["unexplained"] == []
+    # The RMSE chain adds up: it starts at the baseline, every finding's before and
+    # after are consecutive rows, and it ends at the final model.
+    finding = diagnosis.findings[0]
+    chain = [step.rmse for step in diagnosis.steps]
+    assert chain[0] == pytest.approx(diagnosis.baseline["rmse"])
+    assert chain[-1] == pytest.approx(diagnosis.final_rmse)
+    i = chain.index(pytest.approx(finding.before["rmse"]))
+    assert chain[i + 1] == pytest.approx(finding.after["rmse"])
+    # Units, standard errors and final values, keyed like the parameters.
+    assert set(finding.units) == set(finding.standard_errors) == set(finding.parameters)
+    assert set(finding.final_parameters) == set(finding.parameters)
+    assert all(unit for unit in finding.units.values()) and finding.reading
+    for name, value in finding.final_parameters.items():
+        assert report["final"]["parameters"][name] == value
 
 
 def test_a_clean_structural_test_names_nothing():
