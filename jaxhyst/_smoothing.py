@@ -15,20 +15,14 @@ from ._fast_pow import positive_pow
 
 
 @jax.custom_jvp
-def safe_pow(base: Float[ArrayLike, "..."], exponent: Float[ArrayLike, "..."]):
-    """`base ** exponent` for `base >= 0`, `exponent >= 1`, finite in value and in
-    both derivatives at `base == 0` (a naive `exp(exponent * log(base))` is NaN there).
-
-    Uses exp2(exponent * log2(base)) in vectorisable arithmetic (`_fast_pow`), which
-    XLA evaluates far faster than `jnp.power` or `jnp.exp`/`jnp.log` in float64.
-    """
+def _safe_pow(base, exponent):
     base = jnp.asarray(base)
     positive = base > 0
     safe_base = jnp.where(positive, base, 1)
     return jnp.where(positive, positive_pow(safe_base, exponent), 0)
 
 
-@safe_pow.defjvp
+@_safe_pow.defjvp
 def _safe_pow_jvp(primals, tangents):
     # Derivative programs (the polish, Jacobians) are compiled many times and run
     # few steps, so they use XLA's exp/log, which compile faster than the
@@ -48,6 +42,18 @@ def _safe_pow_jvp(primals, tangents):
     # d/dn b^n = b^n log b, whose limit at b = 0 is 0.
     d_value_d_exponent = jnp.where(positive, value * log_base, 0)
     return value, d_value_d_base * d_base + d_value_d_exponent * d_exponent
+
+
+# One nested program: traced once per argument type per process, where inline its
+# polynomials (about a hundred operations) were traced again at every |h|^n of every
+# vector field, and under every derivative and batch. XLA inlines the call.
+safe_pow = jax.jit(_safe_pow)
+safe_pow.__doc__ = """`base ** exponent` for `base >= 0`, `exponent >= 1`, finite in
+value and in both derivatives at `base == 0` (a naive `exp(exponent * log(base))` is
+NaN there).
+
+Uses exp2(exponent * log2(base)) in vectorisable arithmetic (`_fast_pow`), which XLA
+evaluates far faster than `jnp.power` or `jnp.exp`/`jnp.log` in float64."""
 
 
 class AbstractSmoothing(eqx.Module):

@@ -353,3 +353,36 @@ def test_sum_squared_error_bad_arguments():
         jh.metrics.sum_squared_error(piezo_model(), path, jnp.zeros(3))
     with pytest.raises(TypeError, match="sum_squared_error: model"):
         jh.metrics.sum_squared_error("piezo", path, jnp.zeros(path.num_samples))
+
+
+def test_a_simulation_and_its_jacobian_trace_the_vector_field_and_the_power_once(
+    monkeypatch,
+):
+    # The four stages of an RK4 step share one nested program, and so do their
+    # derivatives and batches; |h|^n (a hundred operations of polynomial) is one
+    # program too. Inline, each was traced again at every stage (4 times a step,
+    # and again under the Jacobian's forward mode).
+    import jaxhyst._smoothing as smoothing
+
+    counts = {"vector_field": 0, "power": 0}
+    vector_field, power = jh.PiezoBoucWen.vector_field, smoothing.positive_pow
+
+    def counted_vector_field(self, t, state, drive):
+        counts["vector_field"] += 1
+        return vector_field(self, t, state, drive)
+
+    def counted_power(base, exponent):
+        counts["power"] += 1
+        return power(base, exponent)
+
+    monkeypatch.setattr(jh.PiezoBoucWen, "vector_field", counted_vector_field)
+    monkeypatch.setattr(smoothing, "positive_pow", counted_power)
+    # A length no other test simulates: nothing of it is traced yet.
+    path = jh.InputPath.from_samples(np.arange(37) / 100.0, np.sin(np.arange(37) / 5))
+
+    def output(k):
+        return jh.simulate(piezo_model(k1=k[0], n=k[1]), path, jh.RK4(substeps=2))
+
+    jax.make_jaxpr(jax.jacfwd(output))(jnp.array([0.3, 1.5]))
+    assert counts["vector_field"] == 1
+    assert counts["power"] <= 1
