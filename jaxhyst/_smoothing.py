@@ -16,6 +16,12 @@ from ._fast_pow import positive_pow
 
 @jax.custom_jvp
 def _safe_pow(base, exponent):
+    """`base ** exponent` for `base >= 0`, `exponent >= 1`, finite in value and in
+    both derivatives at `base == 0` (a naive `exp(exponent * log(base))` is NaN there).
+
+    Uses exp2(exponent * log2(base)) in vectorisable arithmetic (`_fast_pow`), which
+    XLA evaluates far faster than `jnp.power` or `jnp.exp`/`jnp.log` in float64.
+    """
     base = jnp.asarray(base)
     positive = base > 0
     safe_base = jnp.where(positive, base, 1)
@@ -47,13 +53,7 @@ def _safe_pow_jvp(primals, tangents):
 # One nested program: traced once per argument type per process, where inline its
 # polynomials (about a hundred operations) were traced again at every |h|^n of every
 # vector field, and under every derivative and batch. XLA inlines the call.
-safe_pow = jax.jit(_safe_pow)
-safe_pow.__doc__ = """`base ** exponent` for `base >= 0`, `exponent >= 1`, finite in
-value and in both derivatives at `base == 0` (a naive `exp(exponent * log(base))` is
-NaN there).
-
-Uses exp2(exponent * log2(base)) in vectorisable arithmetic (`_fast_pow`), which XLA
-evaluates far faster than `jnp.power` or `jnp.exp`/`jnp.log` in float64."""
+safe_pow = eqx.filter_jit(_safe_pow)
 
 
 class AbstractSmoothing(eqx.Module):
