@@ -172,7 +172,12 @@ def refit(
         polish = LevenbergMarquardtPolish(max_steps=settings.max_steps, min_gain=1e-5)
         # `ActiveProblem` offers the part of `Problem` a polish uses.
         z = polish.run(active, z).z  # pyright: ignore[reportArgumentType]
-    return model_at(space, active.solved(z)).held_at_zero(())
+    # Read off through the space with nothing held (the same values): refits of
+    # every held set share the one program of `model_at`.
+    released = eqx.tree_at(
+        lambda s: s.template, space, space.template.held_at_zero(())
+    )
+    return model_at(released, active.solved(z))
 
 
 def _finite_or_inf(value) -> float:
