@@ -174,9 +174,7 @@ def refit(
         z = polish.run(active, z).z  # pyright: ignore[reportArgumentType]
     # Read off through the space with nothing held (the same values): refits of
     # every held set share the one program of `model_at`.
-    released = eqx.tree_at(
-        lambda s: s.template, space, space.template.held_at_zero(())
-    )
+    released = eqx.tree_at(lambda s: s.template, space, space.template.held_at_zero(()))
     return model_at(released, active.solved(z))
 
 
