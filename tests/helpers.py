@@ -6,6 +6,7 @@ from typing import Any
 
 import jax
 import numpy as np
+import pytest
 
 import jaxhyst as jh
 
@@ -68,3 +69,23 @@ def lowered_while(call: Callable[[], Any]) -> tuple[Any, list[str]]:
     finally:
         jax.monitoring.unregister_event_duration_listener(listener)
     return result, lowered
+
+
+def assert_the_chain_adds_up_and_findings_are_keyed(diagnosis: jh.Diagnosis) -> None:
+    """The RMSE chain starts at the baseline, every finding's before and after are
+    consecutive rows, and it ends at the final model; each finding's units, standard
+    errors and final values are keyed like its parameters, and the report's final
+    parameters hold those values."""
+    chain = [step.rmse for step in diagnosis.steps]
+    assert chain[0] == pytest.approx(diagnosis.baseline["rmse"])
+    assert chain[-1] == pytest.approx(diagnosis.final_rmse)
+    report = diagnosis.to_dict()
+    for finding in diagnosis.findings:
+        i = chain.index(pytest.approx(finding.before["rmse"]))
+        assert chain[i + 1] == pytest.approx(finding.after["rmse"])
+        names = set(finding.parameters)
+        assert set(finding.units) == set(finding.standard_errors) == names
+        assert set(finding.final_parameters) == names
+        assert all(unit for unit in finding.units.values()) and finding.reading
+        for name, value in finding.final_parameters.items():
+            assert report["final"]["parameters"][name] == value

@@ -1,6 +1,7 @@
 import jax
 import numpy as np
 import pytest
+from helpers import assert_the_chain_adds_up_and_findings_are_keyed
 
 import jaxhyst as jh
 
@@ -169,19 +170,7 @@ def test_a_large_concealed_effect_is_named_on_a_short_record():
     report = diagnosis.to_dict()
     assert report["final"]["model"] == "piezo+drift"
     assert report["unexplained"] == []
-    # The RMSE chain adds up: it starts at the baseline, every finding's before and
-    # after are consecutive rows, and it ends at the final model.
-    chain = [step.rmse for step in diagnosis.steps]
-    assert chain[0] == pytest.approx(diagnosis.baseline["rmse"])
-    assert chain[-1] == pytest.approx(diagnosis.final_rmse)
-    i = chain.index(pytest.approx(finding.before["rmse"]))
-    assert chain[i + 1] == pytest.approx(finding.after["rmse"])
-    # Units, standard errors and final values, keyed like the parameters.
-    assert set(finding.units) == set(finding.standard_errors) == set(finding.parameters)
-    assert set(finding.final_parameters) == set(finding.parameters)
-    assert all(unit for unit in finding.units.values()) and finding.reading
-    for name, value in finding.final_parameters.items():
-        assert report["final"]["parameters"][name] == value
+    assert_the_chain_adds_up_and_findings_are_keyed(diagnosis)
 
 
 def test_unexplained_structure_is_judged_against_the_residuals_own_noise():

@@ -8,6 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import assert_the_chain_adds_up_and_findings_are_keyed
 
 import jaxhyst as jh
 from jaxhyst.synthetic import structural_recording
@@ -269,20 +270,7 @@ def test_a_large_concealed_pinching_is_named():
     assert report["final"]["model"] == "bouc-wen+pinching"
     assert report["opensees"].startswith("uniaxialMaterial BWBN 1 ")
     assert report["unexplained"] == []
-    # The RMSE chain adds up: it starts at the baseline, every finding's before and
-    # after are consecutive rows, and it ends at the final model.
-    finding = diagnosis.findings[0]
-    chain = [step.rmse for step in diagnosis.steps]
-    assert chain[0] == pytest.approx(diagnosis.baseline["rmse"])
-    assert chain[-1] == pytest.approx(diagnosis.final_rmse)
-    i = chain.index(pytest.approx(finding.before["rmse"]))
-    assert chain[i + 1] == pytest.approx(finding.after["rmse"])
-    # Units, standard errors and final values, keyed like the parameters.
-    assert set(finding.units) == set(finding.standard_errors) == set(finding.parameters)
-    assert set(finding.final_parameters) == set(finding.parameters)
-    assert all(unit for unit in finding.units.values()) and finding.reading
-    for name, value in finding.final_parameters.items():
-        assert report["final"]["parameters"][name] == value
+    assert_the_chain_adds_up_and_findings_are_keyed(diagnosis)
 
 
 def test_a_clean_structural_test_names_nothing():
