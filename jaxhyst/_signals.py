@@ -538,6 +538,13 @@ def _num_samples(signal: AbstractSignal, rate: float, owner: str) -> int:
     return num
 
 
+@eqx.filter_jit
+def _evaluate(signal: AbstractSignal, t: Float[Array, " n"]) -> Float[Array, " n"]:
+    """`signal(t)` as one program (op by op, a signal's few operations compile one
+    small program each per record length)."""
+    return signal(t)
+
+
 def sample_times(signal: AbstractSignal, rate: float) -> np.ndarray:
     """The sample times `k / rate` for `k = 0, ..., round(duration * rate)` (so the
     last time equals `duration` whenever `duration * rate` is a whole number)."""
@@ -556,5 +563,5 @@ def sample(
     otherwise). The paper samples u1 at `rate=1000.0`."""
     num = _num_samples(signal, rate, "sample")
     times = np.arange(num, dtype=float) / float(rate)
-    values = signal(jnp.asarray(times))
+    values = _evaluate(signal, jnp.asarray(times))
     return InputPath(0.0, 1.0 / float(rate), values, interpolation=interpolation)

@@ -325,6 +325,7 @@ def simulate(
 ) -> tuple[Float[Array, " n"], Float[Array, "n s"]]: ...
 
 
+@eqx.filter_jit
 def simulate(
     model: AbstractHysteresisModel,
     inputs: InputPath,
@@ -359,6 +360,7 @@ def simulate(
     return outputs
 
 
+@eqx.filter_jit
 def sum_squared_error(
     model: AbstractHysteresisModel,
     inputs: InputPath,

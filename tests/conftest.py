@@ -49,8 +49,10 @@ def pytest_configure(config):
     (the same fit in two test files, or after a module's `jax.clear_caches()`) load
     instead of compiling again; `JAXHYST_CACHE_DIR` points the CLI (its cache and its
     program store) at the same folder. Nothing is shared between runs and nothing is
-    written to the user's cache folder. tests/test_cache.py and
-    tests/test_program_store.py set their own folders."""
+    written to the user's cache folder. Programs that compile in under a tenth of a
+    second (the eager operations of the tests, a thousand or more in a run) are not
+    written: writing one costs about a tenth of compiling it. tests/test_cache.py
+    and tests/test_program_store.py set their own folders."""
     if not hasattr(config, "workerinput") and _RUN_CACHE not in os.environ:
         folder = tempfile.mkdtemp(prefix="jaxhyst-test-cache-")
         os.environ[_RUN_CACHE] = folder
@@ -59,7 +61,7 @@ def pytest_configure(config):
     os.environ.setdefault("JAXHYST_CACHE_DIR", folder)
     if folder:
         jax.config.update("jax_compilation_cache_dir", folder)
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.1)
         jax.config.update("jax_persistent_cache_min_entry_size_bytes", -1)
 
 

@@ -386,3 +386,29 @@ def test_a_simulation_and_its_jacobian_trace_the_vector_field_and_the_power_once
     jax.make_jaxpr(jax.jacfwd(output))(jnp.array([0.3, 1.5]))
     assert counts["vector_field"] == 1
     assert counts["power"] <= 1
+
+
+def test_an_eager_simulation_compiles_one_program_and_new_values_none():
+    # Called outside jit, `simulate` and `sum_squared_error` are one program each (op
+    # by op, the drive at every sample, the outputs and the checks lowered some
+    # forty small programs per record length); new parameter values reuse them.
+    # A length no other test simulates: nothing of it is compiled yet.
+    t = np.arange(41) / 100.0
+    path = jh.InputPath.from_samples(t, np.sin(t * 20))
+    model, moved = piezo_model(), piezo_model(k1=0.5)
+    lowered = []
+
+    def listen(event, duration, fun_name="", **kwargs):
+        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration":
+            lowered.append(fun_name)
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        y = jh.simulate(model, path)
+        jh.metrics.sum_squared_error(model, path, y)
+        y2 = jh.simulate(moved, path)
+        jh.metrics.sum_squared_error(moved, path, y)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert lowered == ["jit(simulate)", "jit(sum_squared_error)"]
+    assert not np.array_equal(y, y2)
