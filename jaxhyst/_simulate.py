@@ -338,6 +338,9 @@ def simulate(
     """Simulate `model` driven by `inputs`; returns the output at every sample time
     (and the state, with `return_state=True`).
 
+    One compiled program (`eqx.filter_jit`): the first call for a model type, solver
+    and record length compiles it; new parameter values and inputs reuse it.
+
     The computation runs in the dtype of `inputs.values` (float32 or float64): the
     model's parameters are cast to it. With `throw=True` a non-finite result raises
     (under jit, through `eqx.error_if`); pass `throw=False` where divergence is
