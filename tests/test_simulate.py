@@ -3,7 +3,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import multisine_path, paper_u1_path, piezo_model
+from helpers import lowered_while, multisine_path, paper_u1_path, piezo_model
 
 import jaxhyst as jh
 
@@ -396,19 +396,14 @@ def test_an_eager_simulation_compiles_one_program_and_new_values_none():
     t = np.arange(41) / 100.0
     path = jh.InputPath.from_samples(t, np.sin(t * 20))
     model, moved = piezo_model(), piezo_model(k1=0.5)
-    lowered = []
 
-    def listen(event, duration, fun_name="", **kwargs):
-        if event == "/jax/core/compile/jaxpr_to_mlir_module_duration":
-            lowered.append(fun_name)
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    try:
+    def calls():
         y = jh.simulate(model, path)
         jh.metrics.sum_squared_error(model, path, y)
         y2 = jh.simulate(moved, path)
         jh.metrics.sum_squared_error(moved, path, y)
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listen)
+        return y, y2
+
+    (y, y2), lowered = lowered_while(calls)
     assert lowered == ["jit(simulate)", "jit(sum_squared_error)"]
     assert not np.array_equal(y, y2)

@@ -95,9 +95,9 @@ def _describe(value, out: list[str]) -> None:
             _describe(item, part)
             items.append("".join(part))
         out.append("frozenset(" + ",".join(sorted(items)) + ")")
-    elif isinstance(value, eqx.Module) and _named(value) is not None:
+    elif isinstance(value, eqx.Module) and (named := _named(value)) is not None:
         # A module-level object by its name: a function under `eqx.filter_jit`.
-        out.append(f"n:{_named(value)}")
+        out.append(f"n:{named}")
     elif isinstance(value, eqx.Module):
         named = _named(type(value))
         if named is None:
