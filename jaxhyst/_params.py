@@ -43,6 +43,7 @@ class ParameterSpace(eqx.Module):
     lower: Float[Array, " d"]
     upper: Float[Array, " d"]
     floor: Float[Array, " d"]
+    ceiling: Float[Array, " d"]
     frozen: Bool[Array, " d"]
     stable_shape: bool = eqx.field(static=True)
 
@@ -99,6 +100,8 @@ class ParameterSpace(eqx.Module):
         # Physical limits that hold even when a polish steps outside the box.
         floors = {**_HARD_FLOORS, **template.parameter_floors}
         self.floor = jnp.asarray([floors.get(n, -np.inf) for n in names])
+        ceilings = template.parameter_ceilings
+        self.ceiling = jnp.asarray([ceilings.get(n, np.inf) for n in names])
         # Frozen parameters keep the template's value whatever z says. The mask is
         # traced, so fits over different subsets of one space share a compilation.
         self.frozen = jnp.asarray([n in frozen for n in names], bool)
@@ -121,10 +124,12 @@ class ParameterSpace(eqx.Module):
         return log, sign, lo, hi
 
     def to_values(self, z: Float[ArrayLike, " d"]) -> Float[Array, " d"]:
-        """Unit-box coordinates -> parameter values (z outside [0, 1] extrapolates)."""
+        """Unit-box coordinates -> parameter values (z outside [0, 1] extrapolates,
+        up to the model's physical limits: `floor` and `ceiling`)."""
         log, sign, lo, hi = self._scaled_bounds()
         scaled = lo + jnp.asarray(z) * (hi - lo)
-        return jnp.maximum(jnp.where(log, sign * jnp.exp(scaled), scaled), self.floor)
+        values = jnp.where(log, sign * jnp.exp(scaled), scaled)
+        return jnp.clip(values, self.floor, self.ceiling)
 
     def to_unit(self, values: Float[ArrayLike, " d"]) -> Float[Array, " d"]:
         """Parameter values -> unit-box coordinates."""

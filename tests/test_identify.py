@@ -76,6 +76,24 @@ def test_a_stable_shape_space_keeps_every_model_in_table_2():
         jh.ParameterSpace(TEMPLATE, {"k1": (0.0, 1.0)}, stable_shape="yes")  # pyright: ignore[reportArgumentType]
 
 
+def test_a_polish_keeps_a_share_within_its_physical_limits():
+    # The slip-lock's `pinch` is the share of the hysteretic rate removed near the
+    # slip: a polish that steps past the box keeps it in [0, 1], where a larger
+    # value would reverse the rate on reloading; the limit has no derivative beyond
+    # it, so Levenberg-Marquardt stops at the edge.
+    template = jh.StructuralBoucWen(1.0, 0.1, 1.0, 0.5, 0.3, 1.5)
+    space = jh.ParameterSpace(template, {"pinch": (0.2, 0.8), "k": (0.5, 2.0)})
+    pinch = space.names.index("pinch")
+    far = jnp.full(2, 3.0)  # far past both upper bounds
+    values = dict(zip(space.names, space.to_values(far).tolist()))
+    assert values["pinch"] == 1.0  # held at its ceiling
+    assert values["k"] == pytest.approx(5.0)  # no physical ceiling
+    assert float(space.to_values(jnp.full(2, -2.0))[pinch]) == 0.0  # its floor
+    assert float(jax.grad(lambda z: space.to_model(z).pinch)(far)[pinch]) == 0.0
+    inside = jax.grad(lambda z: space.to_model(z).pinch)(jnp.full(2, 0.5))
+    assert float(inside[pinch]) == pytest.approx(0.6)
+
+
 def test_parameter_space_errors():
     with pytest.raises(ValueError, match="not parameters"):
         jh.ParameterSpace(TEMPLATE, {"k9": (0.0, 1.0)})

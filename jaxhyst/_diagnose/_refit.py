@@ -201,14 +201,18 @@ def additive_names(
 ) -> tuple[str, ...]:
     """The parameters of `free` that a refit solves in closed form: those the
     catalogue's effects declare `additive`, where the space maps them linearly (no
-    log scale, no floor), so that the output is affine in their coordinates."""
+    log scale, no floor or ceiling), so that the output is affine in their
+    coordinates."""
     declared = {p for effect in family.catalogue for p in effect.additive}
     linear = {
         name
-        for name, log, floor in zip(
-            space.names, space.log_scale, np.asarray(space.floor)
+        for name, log, floor, ceiling in zip(
+            space.names,
+            space.log_scale,
+            np.asarray(space.floor),
+            np.asarray(space.ceiling),
         )
-        if not log and np.isneginf(floor)
+        if not log and np.isneginf(floor) and np.isposinf(ceiling)
     }
     return tuple(n for n in free if n in declared and n in linear)
 

@@ -309,6 +309,9 @@ class AbstractHysteresisModel(eqx.Module, Generic[DriveT]):
     # polish steps outside its box (`ParameterSpace.floor`), beyond the shared ones
     # (n >= 1, nu >= 1).
     parameter_floors: ClassVar[dict[str, float]] = {}
+    # Physical upper limits, likewise (`ParameterSpace.ceiling`): a share that
+    # cannot pass one, say.
+    parameter_ceilings: ClassVar[dict[str, float]] = {}
     # Parameters an earlier jaxhyst had and this one has not (by name: what
     # replaced them), so that loading an old model file says why it cannot.
     retired_parameters: ClassVar[dict[str, str]] = {}

@@ -158,6 +158,10 @@ class StructuralBoucWen(AbstractGainHoldingModel[Drive]):
         "pinch": 0.0,
         "slip_length": 0.0,
     }
+    # The slip-lock removes at most the whole hysteretic rate near the slip
+    # (Baber and Noori's zeta_1 < 1): a larger `pinch` would reverse it, a loop
+    # that turns back on itself on reloading.
+    parameter_ceilings: ClassVar[dict[str, float]] = {"pinch": 1.0}
 
     @classmethod
     def from_bouc_wen(cls, base: BoucWen, **normalisers) -> "StructuralBoucWen":

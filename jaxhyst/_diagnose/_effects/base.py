@@ -138,12 +138,16 @@ class AbstractEffect(eqx.Module):
     def fitted_dof(self, model: AbstractHysteresisModel) -> int:
         """How many parameters a refit that reached `model` fitted, for the
         information criterion: each of the effect's parameters except those held at
-        their model's floor (`parameter_floors`), which fitted nothing (the degrees
-        of freedom of non-negative least squares); at least one."""
-        floors = type(model).parameter_floors
+        their model's floor or ceiling (`parameter_floors`, `parameter_ceilings`),
+        which fitted nothing (the degrees of freedom of bounded least squares); at
+        least one."""
+        limits = [type(model).parameter_floors, type(model).parameter_ceilings]
         return max(
             sum(
-                p not in floors or float(getattr(model, p)) != floors[p]
+                not any(
+                    p in limit and float(getattr(model, p)) == limit[p]
+                    for limit in limits
+                )
                 for p in self.parameters
             ),
             1,
