@@ -44,6 +44,7 @@ from ._progress import Progress
 from ._records import BATCH, DiagnosisRecords
 from ._refit import DegenerateRefit, RefitSettings, fitted_names, idle_gains, refit
 from ._remainder import remainder
+from ._residual_probes import ResidualProbe, bin_prediction
 from ._results import (
     RESOLVED_SIGMA,
     Advice,
@@ -1378,6 +1379,97 @@ def _forms_apart(ctx: _Context, state: _State) -> _State:
     return state
 
 
+def _form_corrections(ctx: _Context, state: _State) -> _State:
+    """Each finding adopted after others, last first, against a form correction of
+    the earlier ones (`AdoptionPolicy.form_correction`): the model without it
+    (refitted, the other findings kept) plus the best of the family's model-free
+    loop corrections (`form_probes`: the residual's bin means, learnt on the
+    fitted samples). A finding that does not fit the held-out samples better by
+    the resolution is not named: what it took up may be a form of the earlier
+    findings that the catalogue does not have."""
+    if not ctx.policy.form_correction or len(state.findings) < 2:
+        return state
+    probes = ctx.family.form_probes(ctx.recording)
+    for index in range(len(state.findings) - 1, 0, -1):
+        earlier = [
+            f.effect
+            for f in state.findings[:index]
+            if ctx.family.effect(f.effect).form_in_loops
+        ]
+        if earlier:
+            state = _against_form_correction(ctx, state, index, earlier, probes)
+    return state
+
+
+def _against_form_correction(
+    ctx: _Context,
+    state: _State,
+    index: int,
+    earlier: list[str],
+    probes: tuple[ResidualProbe, ...],
+) -> _State:
+    """`state`, or without its finding at `index` where the model without it plus
+    a form correction (`_form_corrections`) fits the held-out samples as well."""
+    finding = state.findings[index]
+    effect = ctx.family.effect(finding.effect)
+    free = tuple(p for p in state.free if p not in effect.parameters)
+    ctx.progress.say(
+        f"{finding.effect} against a form correction of {', '.join(earlier)}"
+    )
+    try:
+        reduced = _refit_or_none(
+            ctx, state, effect.switch_off(state.current), free, max_steps=20
+        )
+    except Exception as error:  # a bug in this refit: the finding stays
+        _candidate_bug(f"the model without {finding.effect}", error)
+        return state
+    if reduced is None:
+        return state
+    reduced_pred = _predict(ctx, reduced)
+    if not _finite(reduced_pred):
+        return state
+    residual = ctx.y - reduced_pred
+    corrections = [
+        (probe, reduced_pred + bin_prediction(probe.labels, residual, ctx.fit_mask))
+        for probe in probes
+    ]
+    probe, corrected = min(corrections, key=lambda c: _mse(ctx.y - c[1], ctx.hold_mask))
+    kept_mse, corrected_mse, se = _heldout_comparison(
+        ctx, state, state.predicted, corrected
+    )
+    if corrected_mse - kept_mse > RESOLVED_SIGMA * se:
+        return state
+    forms = " and ".join(earlier)
+    ctx.progress.say(f"{finding.effect} not named: a form correction fits as well")
+    statement = Ambiguity(
+        f"{finding.effect} may be present, or the form of {forms} differs from "
+        f"the catalogue's: the model without {finding.effect}, corrected by a "
+        f"model-free function of {probe.what} learnt on the fitted samples, fits "
+        f"the held-out samples as well as the model with it (held-out RMSE "
+        f"{math.sqrt(corrected_mse):.3g} against {math.sqrt(kept_mse):.3g}, "
+        f"within the {RESOLVED_SIGMA:.0f} standard errors this comparison needs). "
+        f"{finding.effect} is not named; what it took up is left to what is left "
+        f"of the residual. A record on which {finding.effect} shows apart from "
+        f"{forms} would tell (see the advice).",
+        (finding.effect,),
+    )
+    return _with_step(
+        ctx,
+        state,
+        f"{finding.effect} dropped (a form correction of {forms} fits as well)",
+        current=reduced,
+        predicted=reduced_pred,
+        free=free,
+        findings=tuple(f for f in state.findings if f is not finding),
+        ambiguities=tuple(
+            a for a in state.ambiguities if finding.effect not in a.concerns
+        )
+        + (statement,),
+        contrasts=state.contrasts
+        + (_Contrast((finding.effect,), state.current, reduced),),
+    )
+
+
 class _FormAlone(eqx.Module):
     """A finding refitted in one of its forms alone: the form, the model, its
     output and held-out MSE, and the refit's free parameters."""
@@ -2038,6 +2130,7 @@ def _diagnose(
     state = _backward(ctx, state)
     state = _rivals(ctx, state)
     state = _forms_apart(ctx, state)
+    state = _form_corrections(ctx, state)
     advice = _advice(ctx, state)
     state, final_model, final_pred = _refitted_on_every_sample(ctx, state)
     findings, correlations = _described(ctx, state, final_model, final_pred)

@@ -46,6 +46,8 @@ from ._probes_damper import damper_probes
 from ._residual_probes import (
     ResidualProbe,
     command_history_probe,
+    excursion_probe,
+    loop_probe,
     velocity_command_probe,
 )
 
@@ -115,6 +117,13 @@ class AbstractFamily(eqx.Module):
         input's level and direction and a slow function of time (which every
         family's unexplained-structure check reads). None by default."""
         return ()
+
+    def form_probes(self, recording: Recording) -> tuple[ResidualProbe, ...]:
+        """Bins of what a difference between a named effect's form and the
+        catalogue's may be a function of: the model-free form corrections that an
+        effect adopted after others must beat (`AdoptionPolicy.form_correction`).
+        By default the input's level and direction and `residual_probes`."""
+        return (loop_probe(recording), *self.residual_probes(recording))
 
     def base_swarm(self) -> MPSO:
         """The base fit's swarm `diagnose` uses unless given one."""
@@ -397,6 +406,11 @@ class StructuralFamily(AbstractFamily):
 
     def describe(self, where):
         return describe_cycles(where)
+
+    def form_probes(self, recording):
+        # A test's loop changes shape as its excursions grow: the loop's shape
+        # level by level, beside its level and direction alone.
+        return (*super().form_probes(recording), excursion_probe(recording))
 
     def probes(self, recording):
         return cyclic_probes(recording)

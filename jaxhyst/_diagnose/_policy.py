@@ -71,6 +71,15 @@ class AdoptionPolicy(eqx.Module):
       other forms' terms); of several, the one with the lowest held-out error, and
       where others are within the resolution of it, the record cannot tell the
       forms apart, said as an ambiguity.
+    - `form_correction`: an effect adopted after others stays a finding only if
+      it fits the held-out samples better, beyond the resolution, than the model
+      without it plus a model-free correction of the loop (the family's
+      `form_probes`: bin means of the residual over the input's level, direction
+      and history, learnt on the fitted samples), which stands for the earlier
+      findings' forms differing from the catalogue's. A later effect that only
+      takes up such a form difference (a drift beside a pinching written in
+      another law) is then not named: "X may be present, or the form of Y
+      differs from the catalogue's".
     """
 
     significance: float = 1e-6
@@ -90,6 +99,7 @@ class AdoptionPolicy(eqx.Module):
     refit_on_structure: bool = False
     whole_catalogue_rivals: bool = True
     forms_apart: bool = True
+    form_correction: bool = True
 
     def __check_init__(self):
         if not 0 < self.significance < 1:

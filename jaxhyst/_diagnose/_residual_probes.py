@@ -35,6 +35,52 @@ def loop_labels(x: np.ndarray, bins: int = 16) -> np.ndarray:
     return quantile_bins(x, bins) * 2 + rising.astype(int)
 
 
+def bin_prediction(labels: np.ndarray, residual: np.ndarray, fit: np.ndarray):
+    """Each sample's prediction of `residual`: the mean of the fitted samples'
+    (`fit`) residual in its bin of `labels` (0 where a bin has no fitted samples)."""
+    count = np.bincount(labels[fit], minlength=labels.max() + 1)
+    total = np.bincount(labels[fit], weights=residual[fit], minlength=labels.max() + 1)
+    means = np.where(count > 0, total / np.maximum(count, 1), 0.0)
+    return means[labels]
+
+
+def loop_probe(recording: Recording) -> ResidualProbe:
+    """`loop_labels` of the recording's input, as a probe."""
+    return ResidualProbe(
+        loop_labels(np.asarray(recording.u)),
+        "the input's level and direction of motion",
+        "a loop-shaped mismatch (it follows the input's level and direction, cycle "
+        "after cycle)",
+    )
+
+
+def excursion_probe(
+    recording: Recording, *, position_bins: int = 8, excursion_bins: int = 4
+) -> ResidualProbe:
+    """Bins over where a cyclic test stands in its loop: the displacement as a
+    share of the largest excursion so far (uniform bins over [-1, 1]), the
+    direction of motion, and that largest excursion (by quantile). A cyclic test's
+    loop changes shape as its excursions grow (cracks open, slips lengthen), so a
+    residual that is a function of these is the loop's shape differing from the
+    model's, level by level, whatever law its change follows."""
+    x = np.asarray(recording.u)
+    reach = np.maximum.accumulate(np.abs(x))
+    peak = float(reach[-1]) if reach.size else 0.0
+    reach = np.maximum(reach, 1e-12 * max(peak, 1e-300))
+    position = np.clip(
+        ((x / reach + 1) / 2 * position_bins).astype(int), 0, position_bins - 1
+    )
+    rising = np.diff(x, prepend=x[0]) >= 0
+    level = quantile_bins(reach, excursion_bins)
+    return ResidualProbe(
+        (level * position_bins + position) * 2 + rising.astype(int),
+        "where the test stands in its loop (the displacement as a share of the "
+        "largest excursion so far, the direction of motion) and that excursion",
+        "a loop whose shape differs from the model's level by level (a pinching "
+        "or a degradation that follows another law than the catalogue's)",
+    )
+
+
 def velocity_command_probe(
     recording: Recording, *, velocity_bins: int = 12, command_bins: int = 4
 ) -> ResidualProbe:

@@ -8,18 +8,9 @@ import numpy as np
 from .._recording import Recording
 from ._families import AbstractFamily
 from ._policy import AdoptionPolicy
-from ._residual_probes import loop_labels
+from ._residual_probes import bin_prediction, loop_labels
 from ._results import Unexplained
 from ._score import NoiseModel
-
-
-def _bin_predictor(labels: np.ndarray, residual: np.ndarray, fit: np.ndarray):
-    """Each sample's prediction: the mean fitted residual of its bin (0 where a
-    bin has no fitted samples)."""
-    count = np.bincount(labels[fit], minlength=labels.max() + 1)
-    total = np.bincount(labels[fit], weights=residual[fit], minlength=labels.max() + 1)
-    means = np.where(count > 0, total / np.maximum(count, 1), 0.0)
-    return means[labels]
 
 
 def _time_labels(n: int, bins: int = 12) -> np.ndarray:
@@ -72,7 +63,7 @@ def _probe_gain(labels: np.ndarray, residual: np.ndarray, fit: np.ndarray) -> fl
     before = float(np.mean(residual[hold] ** 2))
     if before <= 0:
         return 0.0
-    prediction = _bin_predictor(labels, residual, fit)
+    prediction = bin_prediction(labels, residual, fit)
     return (before - float(np.mean((residual - prediction)[hold] ** 2))) / before
 
 
@@ -151,7 +142,7 @@ def unexplained_structure(
         gain = gains[kind]
         if gain <= float(np.quantile(drawn, 0.995)):
             continue
-        prediction = _bin_predictor(labels, residual, fit_mask)
+        prediction = bin_prediction(labels, residual, fit_mask)
         change = float(np.sqrt(np.mean(prediction[hold] ** 2)))
         where = family.describe(family.locate(recording, residual))
         if kind == "loop":

@@ -65,6 +65,12 @@ class AbstractEffect(eqx.Module):
     # solve them all hold their second differences small (`SMOOTHNESS`), so that
     # the spline bridges held-out samples smoothly instead of swinging there.
     smooth: ClassVar[tuple[str, ...]] = ()
+    # Whether a form of this effect other than the catalogue's would change the
+    # loop (a function of the input's level, direction and history), so that a
+    # model-free correction of the loop stands for it when an effect adopted after
+    # this one is judged (`AdoptionPolicy.form_correction`). False for an effect
+    # that is a slow function of time whatever its form (a drift, an offset).
+    form_in_loops: ClassVar[bool] = True
 
     @property
     def gains(self) -> tuple[str, ...]:

@@ -37,6 +37,8 @@ class DamperOffset(AbstractEffect):
     the offset's 20-step candidate refit did not lead it out)."""
 
     name: ClassVar[str] = "offset"
+    # Its forms (polynomials, a spline) are all slow functions of time.
+    form_in_loops: ClassVar[bool] = False
     parameters: ClassVar[tuple[str, ...]] = OFFSET_TERMS
     additive: ClassVar[tuple[str, ...]] = parameters
     forms: ClassVar[dict[str, tuple[str, ...]]] = {"spline": parameters}

@@ -47,6 +47,8 @@ class Drift(AbstractEffect):
     output: sensor offsets, thermal drift, load-cell zero shifts."""
 
     name: ClassVar[str] = "drift"
+    # Its forms (polynomials, a spline) are all slow functions of time.
+    form_in_loops: ClassVar[bool] = False
     parameters: ClassVar[tuple[str, ...]] = ("offset", "trend", "curvature", "wander")
     additive: ClassVar[tuple[str, ...]] = parameters
     forms: ClassVar[dict[str, tuple[str, ...]]] = {"legendre": parameters}
