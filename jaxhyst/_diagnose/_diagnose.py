@@ -1998,6 +1998,10 @@ def diagnose(
        alone, the policy may refit the best with each other one as a pair.
     4. Backward check, then swaps: effects that no longer earn their place are
        dropped, runners-up that explain the held-out data better replace them.
+       Each finding is refitted against every other effect of the catalogue in
+       its place, and in each of its forms alone; an effect adopted after others
+       must beat a model-free correction of the loop that stands for their forms
+       differing from the catalogue's (`AdoptionPolicy.form_correction`).
     5. Final refit on every sample, and the residual that remains structured on
        held-out data but matches no effect is reported as `unexplained`.
 
