@@ -33,6 +33,8 @@ from .base import (
 from .bouc_wen import PiezoBoucWen, ShiftedDrive, shift_reason
 
 
+# The creep modes' relaxation times by default (seconds, fastest first).
+CREEP_TIMES = (0.03, 0.3, 3.0, 30.0)
 # Where the creep modes (fastest first, as in `creep_times`) live in the state.
 _CREEP_STATES = (8, 1, 2, 3)
 _CREEP_GAINS = ("creep_faster", "creep_fast", "creep_slow", "creep_slower")
@@ -115,7 +117,7 @@ class ExtendedPiezo(AbstractGainHoldingModel[ShiftedDrive]):
         converter=as_parameter, default=1.0, kw_only=True
     )
     creep_times: tuple[float, float, float, float] = eqx.field(
-        default=(0.03, 0.3, 3.0, 30.0), static=True, kw_only=True
+        default=CREEP_TIMES, static=True, kw_only=True
     )
     dynamic: bool = eqx.field(default=False, static=True, kw_only=True)
     smoothing: AbstractSmoothing = eqx.field(default_factory=ExactSign, kw_only=True)
@@ -125,6 +127,10 @@ class ExtendedPiezo(AbstractGainHoldingModel[ShiftedDrive]):
     zero_gains: frozenset[str] = held_gains_field()
 
     state_size: ClassVar[int] = 9
+    # The Kelvin-Voigt element relaxes faster than creep's fastest mode: slower, it
+    # would be the same equation as a creep mode (a first-order lag of the drive
+    # added to the output), and the two effects would share a term.
+    parameter_ceilings: ClassVar[dict[str, float]] = {"viscous_time": CREEP_TIMES[0]}
 
     @classmethod
     def around(

@@ -1,10 +1,9 @@
 """Creep: slow relaxation of the output driven by the input."""
 
-import dataclasses
 import math
-from typing import ClassVar, cast
+from typing import ClassVar
 
-from ..._models.extended import ExtendedPiezo
+from ..._models.extended import CREEP_TIMES
 from .base import (
     AbstractEffect,
     Figure,
@@ -19,12 +18,11 @@ from .base import (
 
 # The relaxation times of the modes, fastest first (ExtendedPiezo's creep_times,
 # in seconds: the piezo family's records are in real time).
-_TIMES: tuple[float, ...] = cast(
-    tuple[float, ...],
-    next(
-        f.default for f in dataclasses.fields(ExtendedPiezo) if f.name == "creep_times"
-    ),
-)
+_TIMES: tuple[float, ...] = CREEP_TIMES
+
+# Creep's fastest relaxation: a first-order relaxation faster than this is a viscous
+# element's (`RateDependence`), not creep's.
+FASTEST_CREEP = min(_TIMES)
 
 
 class Creep(AbstractEffect):

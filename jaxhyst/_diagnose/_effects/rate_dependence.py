@@ -15,6 +15,7 @@ from .base import (
     named_units,
     time_scale,
 )
+from .creep import FASTEST_CREEP
 
 
 class RateDependence(AbstractEffect):
@@ -41,7 +42,13 @@ class RateDependence(AbstractEffect):
 
     def bounds(self, name, value, scales: RefitScales):
         if name == "viscous_time":
-            return (4.0 / scales.sample_rate, 2.0)
+            # A Kelvin-Voigt element and one relaxation mode of creep are the same
+            # equation (a first-order lag of the drive added to the output), so
+            # the catalogue draws the line where creep's modes begin: a viscous
+            # element relaxes faster than creep's fastest mode, within a cycle of
+            # the drive; a slower relaxation is creep's.
+            # (`ExtendedPiezo.parameter_ceilings` holds the line in polishes.)
+            return (min(4.0 / scales.sample_rate, FASTEST_CREEP / 2), FASTEST_CREEP)
         return None
 
     def starting_points(self, current, step, scales):
@@ -53,7 +60,7 @@ class RateDependence(AbstractEffect):
             viscous = float(piezo.viscous) + step["viscous"]
             models += [
                 current.replace(viscous=gain * viscous, viscous_time=time)
-                for time in (0.005, 0.01, 0.02, 0.05, 0.1)
+                for time in (0.005, 0.01, 0.02, FASTEST_CREEP)
                 for gain in (1.0, 2.0, 4.0)
             ]
         return models
