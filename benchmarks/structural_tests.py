@@ -18,8 +18,10 @@ For each record this script
 
 It prints the machine and versions and a Markdown table: held-out RMS and NRMSD
 (RMS / max|F| of the record) of the base and final models on the held-out cycles,
-the findings in order with their held-out gains, what stayed unexplained, and the
-seconds. `--out DIR` also writes the table (DIR/structural_tests.md) and one
+the findings in order with their held-out gains, beside them what the loops show
+without a model (`jh.diagnosis.loop_indicators`: do they degrade, do they pinch,
+with the numbers each verdict rests on), what stayed unexplained, and the
+seconds; below it, where the findings and the loops disagree, why. `--out DIR` also writes the table (DIR/structural_tests.md) and one
 before/after loop figure per record (DIR/<record>_loops.png: measured, base,
 final force against displacement); `--json PATH` writes everything as JSON.
 Existing outputs are never replaced without `--force`.
@@ -27,6 +29,11 @@ Existing outputs are never replaced without `--force`.
     python benchmarks/structural_tests.py --out jaxhyst-out/structural
     python benchmarks/structural_tests.py --records daniel chiu --particles 32 \\
         --iterations 50 --json structural.json
+
+`--loops-only` prints just the loop indicators of the records (no diagnosis: a few
+seconds for all eight), with each verdict's reason below the table:
+
+    python benchmarks/structural_tests.py --loops-only
 """
 
 import argparse
@@ -35,6 +42,7 @@ import sys
 import time
 import traceback
 from pathlib import Path
+from typing import Any
 
 import jax
 
@@ -87,6 +95,12 @@ def parse_args(argv=None):
         "--no-opensees", action="store_true", help="skip the OpenSees comparison"
     )
     parser.add_argument(
+        "--loops-only",
+        action="store_true",
+        help="print only the model-free loop indicators of the records (no "
+        "diagnosis, no fit; --json writes them)",
+    )
+    parser.add_argument(
         "--out",
         metavar="DIR",
         default=None,
@@ -131,6 +145,49 @@ def opensees_api():
     if material is None or force is None:
         return "this jaxhyst has no opensees_material / opensees_force"
     return material, force
+
+
+def loops_api():
+    """`(loop_indicators, compare_loops)`, or exit saying what is missing."""
+    try:
+        module = importlib.import_module("jaxhyst._diagnose._loop_indicators")
+    except ImportError:
+        raise SystemExit(
+            "structural_tests: this jaxhyst has no jh.diagnosis.loop_indicators (the "
+            "model-free loop indicators); update jaxhyst."
+        ) from None
+    return module.loop_indicators, module.compare_loops
+
+
+def percent(value: float, digits: int = 0) -> str:
+    return "n/a" if not np.isfinite(value) else f"{100 * value:.{digits}f} %"
+
+
+def loops_cells(loops) -> tuple[str, str]:
+    """The degradation and pinching verdicts with the numbers they rest on."""
+    worst = max((e for e in loops.envelope_loss if np.isfinite(e)), default=np.nan)
+    degrade = (
+        f"{loops.degradation.answer}: 2nd cycle {percent(loops.strength_loss)} "
+        f"({loops.repeated_levels} levels), post-peak {percent(worst)}"
+    )
+    pinch = (
+        f"{loops.pinching.answer}: F(0) {percent(loops.zero_force_ratio)}, energy "
+        f"{percent(loops.energy_ratio)}, unloading "
+        + (
+            f"{loops.unloading_ratio:.1f}x"
+            if np.isfinite(loops.unloading_ratio)
+            else "n/a"
+        )
+    )
+    return degrade, pinch
+
+
+def loops_json(loops, agreement=()) -> dict:
+    """The indicators as JSON (without the per-cycle list), with the agreement."""
+    data = {k: v for k, v in loops.to_dict().items() if k != "cycles"}
+    if agreement:
+        data["agreement"] = [a.to_dict() for a in agreement]
+    return data
 
 
 # ----------------------------------------------------------------- one record
@@ -217,6 +274,13 @@ def run_record(name, args, api, opensees, key) -> dict:
         recording, key=jax.random.fold_in(key, 0), family=family, **swarm_kwargs
     )
     wall = time.perf_counter() - start
+    loop_indicators, compare_loops = loops_api()
+    loops = getattr(diagnosis, "loops", None) or loop_indicators(recording)
+    agreement = getattr(diagnosis, "loop_agreement", None) or compare_loops(
+        diagnosis.effects,
+        loops,
+        undecided=getattr(diagnosis, "undecided", ()),
+    )
     mask = np.asarray(diagnosis.heldout, dtype=bool)
     base = np.asarray(diagnosis.base_predicted, dtype=np.float64)
     final = np.asarray(diagnosis.final_predicted, dtype=np.float64)
@@ -260,6 +324,8 @@ def run_record(name, args, api, opensees, key) -> dict:
             f"{u.description} ({u.resembles})" for u in diagnosis.unexplained
         ],
         "ambiguities": [a.statement for a in diagnosis.ambiguities],
+        "loops": loops_json(loops, agreement),
+        "loop_cells": loops_cells(loops),
         "plain_fit": {
             "model": plain["model"],
             "parameters": plain["parameters"],
@@ -327,15 +393,23 @@ def markdown(results: list[dict], info: dict) -> str:
         "the base model on the same fitted samples; OpenSees: max |F_OpenSees - "
         "F_final| / max|F|.",
         "",
+        "Loops: what the loops show without a model (`jh.diagnosis."
+        "loop_indicators`): degrade, with the median loss of force at equal "
+        "displacement on a level's second cycle and the loss past the envelope's "
+        "peak; pinch, with the force at zero displacement over the peak force, the "
+        "energy over the rectangle's and the unloading stiffness over the secant "
+        "(at the largest amplitudes).",
+        "",
         "| record | points | reversals | base RMS | base NRMSD | findings (held-out "
-        "gain) | final RMS | final NRMSD | unexplained | plain BW NRMSD | OpenSees "
-        "| diagnosis s |",
-        "|---|---:|---:|---:|---:|---|---:|---:|---|---:|---|---:|",
+        "gain) | loops: degrade | loops: pinch | final RMS | final NRMSD | "
+        "unexplained | plain BW NRMSD | OpenSees | diagnosis s |",
+        "|---|---:|---:|---:|---:|---|---|---|---:|---:|---|---:|---|---:|",
     ]
     for r in results:
         if "error" in r:
             lines.append(
-                f"| {r['record']} | | | | | failed: {cell(r['error'])} | | | | | | |"
+                f"| {r['record']} | | | | | failed: {cell(r['error'])} "
+                "| | | | | | | | |"
             )
             continue
         unit = f" {r['units']['output']}" if r["units"]["output"] else ""
@@ -363,6 +437,8 @@ def markdown(results: list[dict], info: dict) -> str:
                     f"{r['base']['heldout_rms']:.4g}{unit}",
                     f"{100 * r['base']['heldout_nrmsd']:.2f} %",
                     cell(findings or "none"),
+                    cell(r["loop_cells"][0]),
+                    cell(r["loop_cells"][1]),
                     f"{r['final']['heldout_rms']:.4g}{unit}",
                     f"{100 * r['final']['heldout_nrmsd']:.2f} %",
                     cell("; ".join(r["unexplained"]) or "none"),
@@ -378,11 +454,85 @@ def markdown(results: list[dict], info: dict) -> str:
     ]
     if notes:
         lines += ["", "Ambiguities:", "", *notes]
+    differ = [
+        f"- {r['record']}: {cell(a['statement'])}"
+        for r in results
+        for a in r.get("loops", {}).get("agreement", [])
+        if a["agree"] is False
+    ]
+    if differ:
+        lines += ["", "Findings and loops disagree:", "", *differ]
     return "\n".join(lines) + "\n"
 
 
+def loops_markdown(rows: list[tuple[str, tuple[int, Any]]]) -> str:
+    """The `--loops-only` table: per record its cycles and the two verdicts with
+    their numbers, then each verdict's reason."""
+    lines = [
+        "| record | points | cycles (levels, repeated) | degrade | 2nd-cycle loss "
+        "| post-peak loss | pinch | F(0) / peak | energy / rectangle | "
+        "unloading / secant |",
+        "|---|---:|---:|---|---:|---:|---|---:|---:|---:|",
+    ]
+    reasons = []
+    for name, (points, loops) in rows:
+        worst = max((e for e in loops.envelope_loss if np.isfinite(e)), default=np.nan)
+        unloading = (
+            f"{loops.unloading_ratio:.1f}"
+            if np.isfinite(loops.unloading_ratio)
+            else "n/a"
+        )
+        lines.append(
+            "| "
+            + " | ".join(
+                [
+                    name,
+                    str(points),
+                    f"{len(loops.cycles)} ({len(loops.levels)}, "
+                    f"{loops.repeated_levels})",
+                    loops.degradation.answer,
+                    percent(loops.strength_loss, 1),
+                    percent(worst),
+                    loops.pinching.answer,
+                    percent(loops.zero_force_ratio),
+                    percent(loops.energy_ratio),
+                    unloading,
+                ]
+            )
+            + " |"
+        )
+        reasons += [
+            f"- {name}, degrade: {cell(loops.degradation.reason)}",
+            f"- {name}, pinch: {cell(loops.pinching.reason)}",
+        ]
+    return "\n".join([*lines, "", *reasons]) + "\n"
+
+
+def loops_only(args) -> int:
+    """`--loops-only`: the loop indicators of every record, no diagnosis."""
+    loop_indicators, _ = loops_api()
+    rows = []
+    for name in args.records:
+        recording = load_structural_test(name, data_dir=args.data_dir)
+        rows.append((name, (recording.num_samples, loop_indicators(recording))))
+    print()
+    print(loops_markdown(rows))
+    if args.json is not None:
+        common.write_json(
+            {
+                "machine": common.machine_info(),
+                "records": [
+                    {"record": name, "points": points, "loops": loops_json(loops)}
+                    for name, (points, loops) in rows
+                ],
+            },
+            args.json,
+        )
+    return 0
+
+
 def json_ready(results: list[dict], info: dict, args) -> dict:
-    drop = ("recording", "arrays", "heldout")
+    drop = ("recording", "arrays", "heldout", "loop_cells")
     return {
         "machine": info,
         "settings": {
@@ -396,6 +546,12 @@ def json_ready(results: list[dict], info: dict, args) -> dict:
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    if args.loops_only:
+        common.output_paths(args.json, None, [], force=args.force)
+        args.data_dir = common.data_dir(args.data_dir)
+        common.print_machine(common.machine_info(devices=False))
+        print(f"data: {args.data_dir}")
+        return loops_only(args)
     api = structural_api()
     names = [TABLE, *(f"{name}_loops.png" for name in args.records)]
     common.output_paths(args.json, args.out, names, force=args.force)

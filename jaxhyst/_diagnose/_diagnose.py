@@ -1437,7 +1437,13 @@ def _against_form_correction(
     kept_mse, corrected_mse, se = _heldout_comparison(
         ctx, state, state.predicted, corrected
     )
-    if corrected_mse - kept_mse > RESOLVED_SIGMA * se:
+    margin = (corrected_mse - kept_mse) / se if se > 0 else math.inf
+    ctx.progress.say(
+        f"{finding.effect}: held-out RMSE {math.sqrt(kept_mse):.4g} with it, "
+        f"{math.sqrt(corrected_mse):.4g} without it and corrected ({probe.what}): "
+        f"{margin:.1f} standard errors"
+    )
+    if margin > RESOLVED_SIGMA:
         return state
     forms = " and ".join(earlier)
     ctx.progress.say(f"{finding.effect} not named: a form correction fits as well")
@@ -2228,4 +2234,5 @@ def _diagnose(
         cannot_show=tuple(
             NotShown(name, reason) for name, reason in ctx.hidden.items()
         ),
+        loops=None if records.several else family.loop_indicators(recording),
     )

@@ -40,6 +40,7 @@ from ._effects.rate_dependence import RateDependence
 from ._effects.rolloff import Rolloff
 from ._locate import describe, describe_cycles, locate, locate_cycles
 from ._locate_damper import describe_damper, locate_damper
+from ._loop_indicators import LoopIndicators, loop_indicators
 from ._policy import AdoptionPolicy
 from ._probes import Probe, cyclic_probes, piezo_probes
 from ._probes_damper import damper_probes
@@ -210,6 +211,11 @@ class AbstractFamily(eqx.Module):
         """Extra keys of the diagnosis JSON that turn the final model into what this
         family's users run (none by default)."""
         return {}
+
+    def loop_indicators(self, recording: Recording) -> LoopIndicators | None:
+        """Model-free indicators of what this family's records show
+        (`Diagnosis.loops`); None by default."""
+        return None
 
 
 class PiezoFamily(AbstractFamily):
@@ -418,6 +424,10 @@ class StructuralFamily(AbstractFamily):
     def exports(self, model, recording):
         # The matching OpenSees uniaxial material (BoucWen, or BWBN when pinched).
         return opensees_json(model, recording)
+
+    def loop_indicators(self, recording):
+        # Whether the loops degrade and pinch, read without a model.
+        return loop_indicators(recording)
 
     def refit_stride(self, model, recording):
         # A quasi-static test's loss is set by its turning points and the path

@@ -7,6 +7,7 @@ import numpy as np
 
 from .._models.base import AbstractHysteresisModel
 from .._stability import stability_json
+from ._loop_indicators import LoopAgreement, LoopIndicators, compare_loops
 from ._remainder import Remainder
 
 
@@ -314,6 +315,9 @@ class Diagnosis(eqx.Module):
     per_recording: tuple[RecordingErrors, ...] = ()
     # Catalogue effects the recording cannot show (not scored), with the reason.
     cannot_show: tuple[NotShown, ...] = ()
+    # What the loops show without a model (`AbstractFamily.loop_indicators`: the
+    # structural family's; None for the others and for several recordings).
+    loops: LoopIndicators | None = None
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -327,6 +331,48 @@ class Diagnosis(eqx.Module):
     @property
     def final_rmse(self) -> float:
         return self.final["rmse"]
+
+    @property
+    def loop_agreement(self) -> tuple[LoopAgreement, ...]:
+        """Whether the named effects agree with `loops` (`compare_loops`: degradation
+        and pinching), and why not where they differ; () without loops."""
+        if self.loops is None:
+            return ()
+        return compare_loops(
+            self.effects,
+            self.loops,
+            undecided=self.undecided,
+            not_named=self._why_not_named(),
+        )
+
+    def _why_not_named(self) -> dict[str, str]:
+        """Why each effect that is not a finding was not named, in words."""
+        why = {
+            n.effect: f"the record cannot show it ({n.reason})"
+            for n in self.cannot_show
+        }
+        for round_ in reversed(self.rounds):  # the last round says it best
+            for score in round_:
+                if score.effect in self.effects or score.effect in why:
+                    continue
+                if score.validation is not None and score.validation.accepted:
+                    text = (
+                        "it fitted the held-out cycles but was not kept (another "
+                        "effect explained the same; see the candidates)"
+                    )
+                elif score.validation is not None:
+                    text = (
+                        "refitted, it did not lower the held-out error enough: the "
+                        "held-out cycles did not support it"
+                    )
+                elif not score.significant:
+                    text = "the score test found no sign of it in the residual"
+                else:
+                    text = "it was not refitted"
+                if score.significant and score.rejection:
+                    text += f" ({score.rejection})"
+                why[score.effect] = text
+        return why
 
     @property
     def candidates(self) -> list[list[dict[str, Any]]]:
@@ -343,6 +389,12 @@ class Diagnosis(eqx.Module):
             "findings": [f.to_dict() for f in self.findings],
             "unexplained": [u.to_dict() for u in self.unexplained],
             "cannot_show": [n.to_dict() for n in self.cannot_show],
+            "loops": None
+            if self.loops is None
+            else {
+                **self.loops.to_dict(),
+                "agreement": [a.to_dict() for a in self.loop_agreement],
+            },
             "final": {
                 "model": "+".join((self.base_name, *self.effects)),
                 "rmse": self.final["rmse"],

@@ -17,6 +17,7 @@ from ._common import (
     base_label,
     bracket,
     change,
+    display_unit,
     final_label,
     final_parameters_text,
     fitted_share,
@@ -108,6 +109,83 @@ def _remainder(diagnosis: Diagnosis, scale: float, unit: str) -> list[Block]:
             f"RMS on the held-out samples {number(scale * left.heldout_rms)}{s}"
         )
     return [Paragraph(left.text(scale, unit)), Bullets(items)]
+
+
+def _loops(diagnosis: Diagnosis, recording: Recording) -> list[Block]:
+    """The "The loops, without a model" section: `Diagnosis.loops`' verdicts, its
+    numbers per amplitude level, and whether the named effects agree."""
+    loops = diagnosis.loops
+    if loops is None:
+        return []
+    f_scale, f_unit = display_unit(recording.output_unit)
+    x_scale, x_unit = display_unit(recording.input_unit)
+    stiffness_unit = f"{f_unit}/{x_unit}" if f_unit and x_unit else ""
+    asked = {"degradation": "Do they degrade?", "pinching": "Do they pinch?"}
+    out: list[Block] = [
+        Heading("The loops, without a model"),
+        Paragraph(
+            "Read from the record alone, whatever the model (`jh.diagnosis."
+            f"loop_indicators`: {loops.reversals} reversals, {len(loops.cycles)} "
+            f"cycles, {len(loops.levels)} amplitude levels):"
+        ),
+        Bullets(
+            [
+                f"**{asked[name]} {v.answer}**: {v.reason}."
+                for name, v in loops.verdicts.items()
+            ]
+        ),
+    ]
+    if loops.levels:
+        rows = [
+            [
+                str(index),
+                number(x_scale * level.amplitude),
+                str(level.cycles),
+                number(f_scale * level.peak_force),
+                number(f_scale / x_scale * level.stiffness),
+                number(level.second_strength_ratio, 3),
+                number(level.zero_force_ratio, 2),
+                number(level.energy_ratio, 2),
+                number(level.unloading_ratio, 2),
+            ]
+            for index, level in enumerate(loops.levels, start=1)
+        ]
+        out += [
+            Table(
+                [
+                    "level",
+                    f"amplitude{bracket(x_unit)}",
+                    "cycles",
+                    f"peak force{bracket(f_unit)}",
+                    f"secant stiffness{bracket(stiffness_unit)}",
+                    "2nd / 1st cycle force",
+                    "force at zero / peak",
+                    "energy / rectangle",
+                    "unloading / secant",
+                ],
+                rows,
+                "rrrrrrrrr",
+            ),
+            Paragraph(
+                "Per level (consecutive cycles reaching about the same "
+                "displacements), its first cycle's half peak-to-peak displacement, "
+                "force and secant stiffness; the second cycle's force at the first "
+                "cycle's displacement over the first's (both directions); the "
+                "loop's height at zero displacement over its peak-to-peak force "
+                "and its energy over that of the rectangle through its peaks "
+                "(both 1 for an elastic-perfectly-plastic loop), and its unloading "
+                "stiffness from the peaks over its secant (about 1 for a nearly "
+                "elastic loop), medians over the level's cycles."
+            ),
+        ]
+    words = {True: "agree", False: "disagree", None: "the loops cannot tell"}
+    agreement = diagnosis.loop_agreement
+    if agreement:
+        out += [
+            Paragraph("Beside the findings:"),
+            Bullets([f"**{words[a.agree]}**: {a.statement}." for a in agreement]),
+        ]
+    return out
 
 
 def _candidates(diagnosis: Diagnosis, scale: float, unit: str) -> Table:
@@ -262,6 +340,7 @@ def diagnosis_blocks(
             ),
         ]
         out += [Heading(f"{index}. {named_form(finding)}", 3), Bullets(items)]
+    out += _loops(diagnosis, recording)
     out += [
         Heading("RMSE chain"),
         Paragraph(
