@@ -140,6 +140,29 @@ def test_a_later_effect_better_than_the_correction_by_the_resolution_stays(stage
     assert state.adopted == ("pinching", "drift")
 
 
+@pytest.mark.parametrize("ahead, named", [(2.0, True), (0.5, False)])
+def test_a_later_effect_needs_to_be_ahead_of_the_correction_by_a_standard_error(
+    stage, ahead, named
+):
+    # A later effect that fits the loop-shaped mismatch exactly, judged with a
+    # standard error that puts it `ahead` standard errors of the difference in
+    # front of the correction (whose bins leave part of the mismatch): ahead by
+    # more than one it stays, though below the resolution of 3 (the held-out data
+    # favour it over a correction with far more freedom); by less, it is not named.
+    y = LOOP + _noise()
+    corrected = min(
+        (
+            engine.bin_prediction(p.labels, y, ~HOLD)
+            for p in FAMILY.form_probes(RECORDING)
+        ),
+        key=lambda c: float(np.mean((y - c)[HOLD] ** 2)),
+    )
+    gap = float(np.mean((y - corrected)[HOLD] ** 2) - np.mean((y - LOOP)[HOLD] ** 2))
+    assert gap > 0
+    state, _ = stage(y, LOOP.copy(), np.zeros(N), se=gap / ahead)
+    assert (state.adopted == ("pinching", "drift")) is named
+
+
 def test_after_effects_whose_forms_do_not_show_in_loops_nothing_is_judged(stage):
     # A drift named first cannot take another form that a loop correction stands
     # for: the pinching after it is not judged against one.

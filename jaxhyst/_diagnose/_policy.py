@@ -72,7 +72,8 @@ class AdoptionPolicy(eqx.Module):
       where others are within the resolution of it, the record cannot tell the
       forms apart, said as an ambiguity.
     - `form_correction`: an effect adopted after others stays a finding only if
-      it fits the held-out samples better, beyond the resolution, than the model
+      it fits the held-out samples better, by more than one standard error of the
+      difference (`FORM_CORRECTION_SIGMA`), than the model
       without it plus a model-free correction of the loop (the family's
       `form_probes`: bin means of the residual over the input's level, direction
       and history, learnt on the fitted samples), which stands for the earlier
