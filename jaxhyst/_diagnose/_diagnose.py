@@ -1425,18 +1425,16 @@ def _against_form_correction(
     ctx.progress.say(
         f"{finding.effect} against a form correction of {', '.join(earlier)}"
     )
-    try:
-        reduced = _refit_or_none(
-            ctx, state, effect.switch_off(state.current), free, max_steps=20
-        )
-    except Exception as error:  # a bug in this refit: the finding stays
-        _candidate_bug(f"the model without {finding.effect}", error)
+    refitted = _short_refit(
+        ctx,
+        state,
+        effect.switch_off(state.current),
+        free,
+        f"the model without {finding.effect}",
+    )
+    if refitted is None:  # no model without it to judge by: the finding stays
         return state
-    if reduced is None:
-        return state
-    reduced_pred = _predict(ctx, reduced)
-    if not _finite(reduced_pred):
-        return state
+    reduced, reduced_pred = refitted
     residual = ctx.y - reduced_pred
     corrections = [
         (probe, reduced_pred + bin_prediction(probe.labels, residual, ctx.fit_mask))
@@ -1497,6 +1495,23 @@ class _FormAlone(eqx.Module):
     free: tuple[str, ...]
 
 
+def _short_refit(
+    ctx: _Context, state: _State, start, free: tuple[str, ...], what: str
+) -> tuple[AbstractHysteresisModel, np.ndarray] | None:
+    """A 20-step polish of `start` over `free` and its output; None where it is
+    degenerate, not finite, or fails with an error of jaxhyst's own (warned with
+    its traceback: `what` names the refit), so that the caller keeps what it had."""
+    try:
+        model = _refit_or_none(ctx, state, start, free, max_steps=20)
+    except Exception as error:  # a bug in this refit: the caller keeps its model
+        _candidate_bug(what, error)
+        return None
+    if model is None:
+        return None
+    predicted = _predict(ctx, model)
+    return (model, predicted) if _finite(predicted) else None
+
+
 def _in_form_alone(
     ctx: _Context, state: _State, effect: AbstractEffect, form: str
 ) -> _FormAlone | None:
@@ -1505,16 +1520,12 @@ def _in_form_alone(
     model; None where that refit is degenerate or fails."""
     start, held = effect.alone(state.current, form)
     free = tuple(p for p in state.free if p not in held)
-    try:
-        model = _refit_or_none(ctx, state, start, free, max_steps=20)
-    except Exception as error:  # a bug in one form's refit: the forms stay
-        _candidate_bug(f"{effect.name} in its form {form}", error)
+    refitted = _short_refit(
+        ctx, state, start, free, f"{effect.name} in its form {form}"
+    )
+    if refitted is None:
         return None
-    if model is None:
-        return None
-    predicted = _predict(ctx, model)
-    if not _finite(predicted):
-        return None
+    model, predicted = refitted
     return _FormAlone(
         form, model, predicted, _mse(ctx.y - predicted, ctx.hold_mask), free
     )
