@@ -37,6 +37,7 @@ amplitudes). The thresholds, and what each rests on, are the constants below.
 named. Everything here is NumPy; nothing is fitted.
 """
 
+import dataclasses
 import math
 from collections.abc import Iterable, Mapping
 from typing import Any
@@ -438,12 +439,35 @@ def _phase(halves: list[_Half]) -> int:
     return 1 if match(1) > match(0) else 0
 
 
+@dataclasses.dataclass
+class _Cycle:
+    """One cycle as `_cycles` reads it: its push and pull halves, their peak
+    displacements (`x`) and forces (`f`), and the loop's numbers (`LoopCycle`'s);
+    `level` and `strength_ratio` are set once the levels are known."""
+
+    start: int
+    end: int
+    push: "_Half"
+    pull: "_Half"
+    x: tuple[float, float]
+    f: tuple[float, float]
+    amplitude: float
+    window: float
+    stiffness: float
+    energy: float
+    energy_ratio: float
+    zero_force_ratio: float
+    unloading_ratio: float
+    level: int = -1
+    strength_ratio: tuple[float, float] = (1.0, 1.0)
+
+
 def _cycles(
     halves: list[_Half], x: np.ndarray, f: np.ndarray
-) -> tuple[list[dict[str, Any]], list[list[int]]]:
-    """The cycles (push and pull half, as dicts of their numbers) and the levels
+) -> tuple[list[_Cycle], list[list[int]]]:
+    """The cycles (push and pull half, as `_Cycle` records) and the levels
     (lists of cycle indices)."""
-    cycles: list[dict[str, Any]] = []
+    cycles: list[_Cycle] = []
     phase = _phase(halves)
     for lead, back in zip(halves[phase::2], halves[phase + 1 :: 2]):
         push, pull = (lead, back) if lead.sign > 0 else (back, lead)
@@ -480,55 +504,50 @@ def _cycles(
         if not whole:
             energy = up = down = unloading = math.nan
         cycles.append(
-            {
-                "start": lead.start,
-                "end": back.end,
-                "push": push,
-                "pull": pull,
-                "x": (x_hi, x_lo),
-                "f": (f_hi, f_lo),
-                "amplitude": amplitude,
-                "window": window,
-                "stiffness": height / (x_hi - x_lo),
-                "energy": energy,
-                "energy_ratio": energy / (height * (x_hi - x_lo))
-                if whole
-                else math.nan,
-                "zero_force_ratio": (up - down) / height if whole else math.nan,
-                "unloading_ratio": unloading,
-            }
+            _Cycle(
+                start=lead.start,
+                end=back.end,
+                push=push,
+                pull=pull,
+                x=(x_hi, x_lo),
+                f=(f_hi, f_lo),
+                amplitude=amplitude,
+                window=window,
+                stiffness=height / (x_hi - x_lo),
+                energy=energy,
+                energy_ratio=energy / (height * (x_hi - x_lo)) if whole else math.nan,
+                zero_force_ratio=(up - down) / height if whole else math.nan,
+                unloading_ratio=unloading,
+            )
         )
     levels: list[list[int]] = []
     for i, cycle in enumerate(cycles):
         if levels:
             first = cycles[levels[-1][0]]
-            reach = LEVEL_TOLERANCE * first["amplitude"]
-            if all(
-                abs(a - b) <= reach for a, b in zip(cycle["x"], first["x"], strict=True)
-            ):
+            reach = LEVEL_TOLERANCE * first.amplitude
+            if all(abs(a - b) <= reach for a, b in zip(cycle.x, first.x, strict=True)):
                 levels[-1].append(i)
                 continue
         levels.append([i])
     return cycles, levels
 
 
-def _strength_ratios(cycles: list[dict[str, Any]], level: list[int]) -> None:
+def _strength_ratios(cycles: list[_Cycle], level: list[int]) -> None:
     """Each cycle's force at the level's first cycle's displacement (the smaller
-    of its and theirs, per direction) over the first's, stored as
-    "strength_ratio"."""
+    of its and theirs, per direction) over the first's, stored as its
+    `strength_ratio`."""
     first = cycles[level[0]]
-    first["strength_ratio"] = (1.0, 1.0)
+    first.strength_ratio = (1.0, 1.0)
     for i in level[1:]:
         cycle = cycles[i]
         ratios = []
-        for half, reference in (("push", first["push"]), ("pull", first["pull"])):
-            mine = cycle[half]
+        for mine, reference in ((cycle.push, first.push), (cycle.pull, first.pull)):
             target = min(mine.peak, reference.peak)
-            window = min(cycle["window"], first["window"])
+            window = min(cycle.window, first.window)
             now = _force_at(mine.x, mine.f, target, window)
             then = _force_at(reference.x, reference.f, target, window)
             ratios.append(now / then if then > 0 else math.nan)
-        cycle["strength_ratio"] = (ratios[0], ratios[1])
+        cycle.strength_ratio = (ratios[0], ratios[1])
 
 
 def _envelope_loss(halves: list[_Half], sign: float) -> float:
@@ -624,7 +643,7 @@ def _degradation(
 
 
 def _pinching(
-    cycles: list[dict[str, Any]],
+    cycles: list[_Cycle],
     upper: list[int],
     zero: float,
     energy: float,
@@ -639,11 +658,9 @@ def _pinching(
             "from a reversal inside it, as an irregular history's do), so their "
             "force at zero displacement and their energy cannot be read",
         )
-    first = cycles[0]["stiffness"]
+    first = cycles[0].stiffness
     secant = (
-        _median(cycles[i]["stiffness"] for i in upper) / first
-        if first > 0
-        else math.nan
+        _median(cycles[i].stiffness for i in upper) / first if first > 0 else math.nan
     )
     numbers = (
         f"at the largest amplitudes ({len(upper)} cycle"
@@ -754,7 +771,7 @@ def loop_indicators(recording: Recording) -> LoopIndicators:
         return _no_cycles(
             recording.name, int(reversals.size), "no cycle spans both directions"
         )
-    backwards = sum(1 for c in cycles if not c["f"][0] > c["f"][1])
+    backwards = sum(1 for c in cycles if not c.f[0] > c.f[1])
     if 2 * backwards > len(cycles):
         return _no_cycles(
             recording.name,
@@ -766,7 +783,7 @@ def loop_indicators(recording: Recording) -> LoopIndicators:
         )
     for index, level in enumerate(levels):
         for i in level:
-            cycles[i]["level"] = index
+            cycles[i].level = index
         _strength_ratios(cycles, level)
 
     level_records = []
@@ -775,55 +792,55 @@ def loop_indicators(recording: Recording) -> LoopIndicators:
         first = cycles[level[0]]
         second = cycles[level[1]] if len(level) > 1 else None
         last = cycles[level[-1]] if len(level) > 1 else None
-        second_ratio = float(np.mean(second["strength_ratio"])) if second else math.nan
-        last_ratio = float(np.mean(last["strength_ratio"])) if last else math.nan
+        second_ratio = float(np.mean(second.strength_ratio)) if second else math.nan
+        last_ratio = float(np.mean(last.strength_ratio)) if last else math.nan
         stiffness_ratio = (
-            _ratio(second["stiffness"], first["stiffness"]) if second else math.nan
+            _ratio(second.stiffness, first.stiffness) if second else math.nan
         )
         if second is not None and last is not None:
-            second_losses += [1 - r for r in second["strength_ratio"]]
-            last_losses += [1 - r for r in last["strength_ratio"]]
+            second_losses += [1 - r for r in second.strength_ratio]
+            last_losses += [1 - r for r in last.strength_ratio]
             stiffness_losses.append(1 - stiffness_ratio)
         level_records.append(
             LoopLevel(
                 first_cycle=level[0],
                 cycles=len(level),
-                amplitude=first["amplitude"],
-                peak_force=0.5 * (first["f"][0] - first["f"][1]),
-                stiffness=first["stiffness"],
+                amplitude=first.amplitude,
+                peak_force=0.5 * (first.f[0] - first.f[1]),
+                stiffness=first.stiffness,
                 second_strength_ratio=second_ratio,
                 last_strength_ratio=last_ratio,
                 stiffness_ratio=stiffness_ratio,
-                zero_force_ratio=_median(cycles[i]["zero_force_ratio"] for i in level),
-                energy_ratio=_median(cycles[i]["energy_ratio"] for i in level),
-                unloading_ratio=_median(cycles[i]["unloading_ratio"] for i in level),
+                zero_force_ratio=_median(cycles[i].zero_force_ratio for i in level),
+                energy_ratio=_median(cycles[i].energy_ratio for i in level),
+                unloading_ratio=_median(cycles[i].unloading_ratio for i in level),
             )
         )
     repeated = sum(1 for level in levels if len(level) > 1)
     strength_loss = _median(second_losses)
     last_loss = _median(last_losses)
     envelope = (_envelope_loss(halves, 1.0), _envelope_loss(halves, -1.0))
-    largest = max(c["amplitude"] for c in cycles)
-    upper = [i for i, c in enumerate(cycles) if c["amplitude"] >= UPPER_SHARE * largest]
-    zero = _median(cycles[i]["zero_force_ratio"] for i in upper)
-    energy = _median(cycles[i]["energy_ratio"] for i in upper)
-    unloading = _median(cycles[i]["unloading_ratio"] for i in upper)
+    largest = max(c.amplitude for c in cycles)
+    upper = [i for i, c in enumerate(cycles) if c.amplitude >= UPPER_SHARE * largest]
+    zero = _median(cycles[i].zero_force_ratio for i in upper)
+    energy = _median(cycles[i].energy_ratio for i in upper)
+    unloading = _median(cycles[i].unloading_ratio for i in upper)
     return LoopIndicators(
         recording=recording.name,
         reversals=int(reversals.size),
         cycles=tuple(
             LoopCycle(
-                start=c["start"],
-                end=c["end"],
-                level=c["level"],
-                peak_displacement=c["x"],
-                peak_force=c["f"],
-                stiffness=c["stiffness"],
-                energy=c["energy"],
-                energy_ratio=c["energy_ratio"],
-                zero_force_ratio=c["zero_force_ratio"],
-                unloading_ratio=c["unloading_ratio"],
-                strength_ratio=c["strength_ratio"],
+                start=c.start,
+                end=c.end,
+                level=c.level,
+                peak_displacement=c.x,
+                peak_force=c.f,
+                stiffness=c.stiffness,
+                energy=c.energy,
+                energy_ratio=c.energy_ratio,
+                zero_force_ratio=c.zero_force_ratio,
+                unloading_ratio=c.unloading_ratio,
+                strength_ratio=c.strength_ratio,
             )
             for c in cycles
         ),
