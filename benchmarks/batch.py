@@ -25,6 +25,7 @@ findings agree between the runs, and the synthetic records' exact-set accuracy.
 """
 
 import argparse
+import contextlib
 import csv
 import json
 import os
@@ -147,27 +148,52 @@ def main(argv=None) -> int:
     parser.add_argument("--cold", action="store_true", help="no warm-up batch")
     parser.add_argument("--sequential", action="store_true")
     parser.add_argument("--json", default=None)
+    parser.add_argument(
+        "--keep",
+        default=None,
+        help="a new folder to keep the records, the cache and the batches' outputs in "
+        "(default: a temporary folder, removed at the end)",
+    )
     args = parser.parse_args(argv)
+    if args.keep is not None and Path(args.keep).exists():
+        parser.error(f"--keep {args.keep}: the folder exists; name a new one")
     info = common.machine_info("dask", "distributed")
     for line in common.machine_lines(info):
         print(line)
     report: dict = {"machine": info, "quick": args.quick}
-    with tempfile.TemporaryDirectory(prefix="jaxhyst-batch-") as tmp:
-        folder = Path(tmp)
+
+    def save() -> None:
+        # After every stage, so that a run stopped part-way keeps what it measured.
+        if args.json:
+            Path(args.json).write_text(json.dumps(report, indent=1, default=str))
+
+    with contextlib.ExitStack() as stack:
+        if args.keep is None:
+            tmp = stack.enter_context(
+                tempfile.TemporaryDirectory(prefix="jaxhyst-batch-")
+            )
+            folder = Path(tmp)
+        else:
+            folder = Path(args.keep)
+            folder.mkdir(parents=True)
         (folder / "records").mkdir()
         os.environ["JAXHYST_CACHE_DIR"] = str(folder / "cache")
         manifest = write_records(folder / "records", args)
         records = len(read_manifest(manifest).records)
-        print(f"{records} records in {manifest}")
+        print(f"{records} records in {manifest}", flush=True)
         if not args.cold:
             wall, _ = run_batch(manifest, folder / "warm", 2)
-            print(f"warm-up (filling the compilation cache): {wall:.1f} s")
+            print(f"warm-up (filling the compilation cache): {wall:.1f} s", flush=True)
             report["warm_s"] = wall
+            save()
         two_s, two = run_batch(manifest, folder / "two", 2)
-        print(f"2 workers x 1 thread: {two_s:.1f} s")
+        print(f"2 workers x 1 thread: {two_s:.1f} s", flush=True)
+        report.update(two_workers_s=two_s, records=two)
+        save()
         one_s, one = run_batch(manifest, folder / "one", 1)
-        print(f"1 worker  x 1 thread: {one_s:.1f} s")
-        report.update(two_workers_s=two_s, one_worker_s=one_s, records=two)
+        print(f"1 worker  x 1 thread: {one_s:.1f} s", flush=True)
+        report.update(one_worker_s=one_s, one_worker_records=one)
+        save()
         print(f"scaling 2 workers / 1 worker: {one_s / two_s:.2f}x (bar: >= 1.8x)")
         own = [r["seconds"] for r in one.values() if r["seconds"]]
         if own:
@@ -201,8 +227,9 @@ def main(argv=None) -> int:
             report["sequential_agrees"] = all(
                 seq[n]["findings"] == two[n]["findings"] for n in two
             )
+            print(f"findings identical one by one: {report['sequential_agrees']}")
+    save()
     if args.json:
-        Path(args.json).write_text(json.dumps(report, indent=1, default=str))
         print(f"wrote {args.json}")
     return 0
 
