@@ -149,6 +149,12 @@ def main(argv=None) -> int:
     parser.add_argument("--sequential", action="store_true")
     parser.add_argument("--json", default=None)
     parser.add_argument(
+        "--cache",
+        default=None,
+        help="the compilation cache folder to use (default: a new one in the run's "
+        "folder, filled by the warm-up)",
+    )
+    parser.add_argument(
         "--keep",
         default=None,
         help="a new folder to keep the records, the cache and the batches' outputs in "
@@ -177,7 +183,7 @@ def main(argv=None) -> int:
             folder = Path(args.keep)
             folder.mkdir(parents=True)
         (folder / "records").mkdir()
-        os.environ["JAXHYST_CACHE_DIR"] = str(folder / "cache")
+        os.environ["JAXHYST_CACHE_DIR"] = args.cache or str(folder / "cache")
         manifest = write_records(folder / "records", args)
         records = len(read_manifest(manifest).records)
         print(f"{records} records in {manifest}", flush=True)

@@ -127,10 +127,7 @@ def test_a_damaged_entry_is_exported_again(tmp_path):
     assert entry.stat().st_size > 100
 
 
-def test_the_command_line_fits_the_same_with_and_without_the_store(tmp_path):
-    # Two processes: the store on (every program exported, then run as exported;
-    # loading one from disk: test_a_stored_program_gives_the_plain_programs_result)
-    # and off; the fit is the same to the last bit.
+def _noisy_recording(folder) -> str:
     t = np.arange(1201) / 400.0
     u = np.sin(2 * np.pi * 1.0 * t) * (1 + 0.5 * np.sin(2 * np.pi * 0.3 * t))
     model = jh.PiezoBoucWen.paper_table4(3)
@@ -138,29 +135,91 @@ def test_the_command_line_fits_the_same_with_and_without_the_store(tmp_path):
     noisy = y + 1e-3 * np.max(np.abs(y)) * np.random.default_rng(0).standard_normal(
         t.size
     )
-    recording = tmp_path / "rec.csv"
+    recording = folder / "rec.csv"
     jh.Recording(t, u, noisy, name="rec").save(recording)
-    results = []
-    for store in ("1", "0"):
-        out = tmp_path / f"fit{len(results)}.json"
-        env = {
-            **os.environ,
-            "JAXHYST_CACHE_DIR": str(tmp_path / "cache"),
-            "JAXHYST_PROGRAM_STORE": store,
-        }
-        subprocess.run(
-            [sys.executable, "-m", "jaxhyst", "fit", str(recording), "--seed", "0"]
-            + ["--particles", "12", "--iterations", "20", "--json", str(out)],
-            env=env,
-            check=True,
-            capture_output=True,
+    return str(recording)
+
+
+def _fit_in_a_process(recording: str, out, cache, *, store: str = "1") -> dict:
+    env = {
+        **os.environ,
+        "JAXHYST_CACHE_DIR": str(cache),
+        "JAXHYST_PROGRAM_STORE": store,
+    }
+    subprocess.run(
+        [sys.executable, "-m", "jaxhyst", "fit", recording, "--seed", "0"]
+        + ["--particles", "12", "--iterations", "20", "--json", str(out)],
+        env=env,
+        check=True,
+        capture_output=True,
+    )
+    return json.loads(out.read_text())
+
+
+def test_the_command_line_fits_the_same_with_and_without_the_store(tmp_path):
+    # Two processes: the store on (every program exported, then run as exported;
+    # loading one from disk: test_a_stored_program_gives_the_plain_programs_result)
+    # and off; the fit is the same to the last bit.
+    recording = _noisy_recording(tmp_path)
+    results = [
+        _fit_in_a_process(
+            recording, tmp_path / f"fit{i}.json", tmp_path / "cache", store=store
         )
-        results.append(json.loads(out.read_text()))
+        for i, store in enumerate(("1", "0"))
+    ]
     stored = list((tmp_path / "cache" / "programs").glob("*.jaxexport"))
     assert len(stored) >= 3
     for other in results[1:]:
         assert other["parameters"] == results[0]["parameters"]
         assert other["metrics"] == results[0]["metrics"]
+
+
+def _compiled(cache) -> set[str]:
+    """The compiled programs in a compilation cache folder."""
+    return {p.name for p in cache.iterdir() if p.is_file()}
+
+
+def test_a_second_fit_compiles_nothing(tmp_path):
+    recording = _noisy_recording(tmp_path)
+    cache = tmp_path / "cache"
+    first = _fit_in_a_process(recording, tmp_path / "fit0.json", cache)
+    after_first = _compiled(cache)
+    assert after_first
+    second = _fit_in_a_process(recording, tmp_path / "fit1.json", cache)
+    assert _compiled(cache) == after_first
+    assert second["parameters"] == first["parameters"]
+
+
+@pytest.mark.slow
+def test_a_second_diagnosis_compiles_nothing(tmp_path):
+    # The first process runs the programs it exports as a later process loads them
+    # (deserialized): the second one then finds each compiled program in the
+    # compilation cache and adds none to it. Before, some of a diagnosis's stored
+    # programs (9 of 35 on a real structural test) lowered to other modules once
+    # loaded, and every second process compiled them again (a batch's workers after
+    # its warm-up, a user's second run).
+    case = jh.synthetic.structural_recording(("degradation",), key=jax.random.key(0))
+    recording = tmp_path / "rec.csv"
+    case.recording.save(recording)
+    cache = tmp_path / "cache"
+    env = {**os.environ, "JAXHYST_CACHE_DIR": str(cache)}
+    columns = ["--input", case.recording.input_names[0]]
+    columns += ["--output", case.recording.output_name]
+    found = []
+    for run in range(2):
+        out = tmp_path / f"diagnosis{run}.json"
+        subprocess.run(
+            [sys.executable, "-m", "jaxhyst", "diagnose", str(recording)]
+            + ["--model", "bouc-wen", *columns, "--json", str(out)],
+            env=env,
+            check=True,
+            capture_output=True,
+        )
+        found.append([f["effect"] for f in json.loads(out.read_text())["findings"]])
+        if run == 0:
+            after_first = _compiled(cache)
+    assert _compiled(cache) == after_first
+    assert found[1] == found[0]
 
 
 def test_jax_options_that_change_a_trace_change_the_key(tmp_path):
