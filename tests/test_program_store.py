@@ -140,15 +140,16 @@ def _noisy_recording(folder) -> str:
     return str(recording)
 
 
-def _fit_in_a_process(recording: str, out, cache, *, store: str = "1") -> dict:
+def _command_in_a_process(argv: list[str], out, cache, *, store: str = "1") -> dict:
+    """`jaxhyst ARGV --json OUT` in a fresh process on the compilation cache `cache`
+    (the program store on or off), and the JSON it wrote."""
     env = {
         **os.environ,
         "JAXHYST_CACHE_DIR": str(cache),
         "JAXHYST_PROGRAM_STORE": store,
     }
     subprocess.run(
-        [sys.executable, "-m", "jaxhyst", "fit", recording, "--seed", "0"]
-        + ["--particles", "12", "--iterations", "20", "--json", str(out)],
+        [sys.executable, "-m", "jaxhyst", *argv, "--json", str(out)],
         env=env,
         check=True,
         capture_output=True,
@@ -156,9 +157,15 @@ def _fit_in_a_process(recording: str, out, cache, *, store: str = "1") -> dict:
     return json.loads(out.read_text())
 
 
+def _fit_in_a_process(recording: str, out, cache, *, store: str = "1") -> dict:
+    argv = ["fit", recording, "--seed", "0", "--particles", "12", "--iterations", "20"]
+    return _command_in_a_process(argv, out, cache, store=store)
+
+
 def test_the_command_line_fits_the_same_with_and_without_the_store(tmp_path):
-    # Two processes: the store on (every program exported, then run as exported;
-    # loading one from disk: test_a_stored_program_gives_the_plain_programs_result)
+    # Two processes: the store on (every program exported, then run as a later
+    # process loads it; loading one from disk:
+    # test_a_stored_program_gives_the_plain_programs_result)
     # and off; the fit is the same to the last bit.
     recording = _noisy_recording(tmp_path)
     results = [
@@ -202,20 +209,13 @@ def test_a_second_diagnosis_compiles_nothing(tmp_path):
     recording = tmp_path / "rec.csv"
     case.recording.save(recording)
     cache = tmp_path / "cache"
-    env = {**os.environ, "JAXHYST_CACHE_DIR": str(cache)}
-    columns = ["--input", case.recording.input_names[0]]
-    columns += ["--output", case.recording.output_name]
+    argv = ["diagnose", str(recording), "--model", "bouc-wen"]
+    argv += ["--input", case.recording.input_names[0]]
+    argv += ["--output", case.recording.output_name]
     found = []
     for run in range(2):
-        out = tmp_path / f"diagnosis{run}.json"
-        subprocess.run(
-            [sys.executable, "-m", "jaxhyst", "diagnose", str(recording)]
-            + ["--model", "bouc-wen", *columns, "--json", str(out)],
-            env=env,
-            check=True,
-            capture_output=True,
-        )
-        found.append([f["effect"] for f in json.loads(out.read_text())["findings"]])
+        data = _command_in_a_process(argv, tmp_path / f"diagnosis{run}.json", cache)
+        found.append([f["effect"] for f in data["findings"]])
         if run == 0:
             after_first = _compiled(cache)
     assert _compiled(cache) == after_first

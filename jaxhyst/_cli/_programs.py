@@ -241,7 +241,7 @@ class _Store:
     def _read(self, path: Path):
         try:
             program, recipe = pickle.loads(path.read_bytes())
-            return jax.export.deserialize(bytearray(program)), recipe
+            return _loaded(program), recipe
         except Exception:  # noqa: BLE001 (an entry cut short, or foreign: export again)
             return None
 
@@ -279,7 +279,7 @@ class _Store:
                 # another module than the exported object does, and a second process
                 # would compile it again (measured: 9 of a diagnosis's 168 programs,
                 # 64 s of its 96 s), its compiled program not in the cache yet.
-                found = (jax.export.deserialize(bytearray(serialized)), recipe)
+                found = (_loaded(serialized), recipe)
         entry = None
         if found is not None:
             exported, recipe = found
@@ -287,6 +287,11 @@ class _Store:
         with self.lock:
             self.loaded[key] = entry
         return entry
+
+
+def _loaded(serialized: bytes) -> jax.export.Exported:
+    """An exported program from its bytes, as every process that runs it loads it."""
+    return jax.export.deserialize(bytearray(serialized))
 
 
 # XLA:CPU's LAPACK kernels, which `jax.export` declines to serialize by default
